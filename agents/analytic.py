@@ -1,0 +1,130 @@
+"""The chapter's analytic controllers, with the ``predict`` contract of a stable-baselines3 policy.
+
+Each controller reads the env's fixed parameters once, at construction, and then acts from the
+observation alone: ``predict(obs, state=None, episode_start=None, deterministic=False) -> (action, state)``
+accepts one observation (obs_dim,) or a batch (n, obs_dim) and returns float32 actions in [-1, 1] of the
+matching shape. :func:`controller_for` builds the reference controller of any vegym env (single, wrapped
+or native vector).
+"""
+
+from __future__ import annotations
+
+import abc
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from vegym.envs.base import Task
+from vegym.envs.bouncing_ball import BouncingBallParams, BouncingBallTask, optimal_apexes
+from vegym.envs.projectile import AZIMUTH_LIMIT, ELEVATION_LIMIT, ProjectileEnvParams, ProjectileTask
+from vegym.physics import projectile
+
+
+class AnalyticController(abc.ABC):
+    """Base: batching and the SB3 ``predict`` signature around :meth:`act`."""
+
+    @abc.abstractmethod
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        """Actions (n, action_dim) in [-1, 1] for observations (n, obs_dim)."""
+
+    def predict(
+        self,
+        observation: np.ndarray,
+        state: Any = None,
+        episode_start: np.ndarray | None = None,
+        deterministic: bool = False,
+    ) -> tuple[np.ndarray, Any]:
+        obs = np.asarray(observation, dtype=np.float64)
+        single = obs.ndim == 1
+        action = self.act(obs[None] if single else obs)
+        action = np.clip(action, -1.0, 1.0).astype(np.float32)
+        return (action[0] if single else action), state
+
+
+class BouncingBallMyopic(AnalyticController):
+    """The chapter's restitution law aimed at the current target: ``e = sqrt(2 g (h* - r)) / v``, in [0, 1].
+
+    In the observation's units (``v / v_drop`` and ``(h* - r) / (drop_height - r)``) this is
+    ``e = sqrt(target) / speed``, since ``v_drop^2 = 2 g (drop_height - r)``.
+    """
+
+    def __init__(self, params: BouncingBallParams) -> None:
+        self.params = params
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        speed, target = obs[:, 0], obs[:, 2]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            e = np.where(speed > 0, np.sqrt(target) / speed, 0.0)
+        return (2.0 * np.clip(e, 0.0, 1.0) - 1.0)[:, None]
+
+
+class BouncingBallOracle:
+    """The exact optimum of BouncingBall: knows the whole target sequence of the episode (privileged).
+
+    Not an observation-only controller: it reads the episode key of a single env at each episode start,
+    derives the episode's targets (they do not depend on the actions) and follows
+    :func:`~vegym.envs.bouncing_ball.optimal_apexes`. It is the upper bound agents are measured against.
+    """
+
+    def __init__(self, env: Any, episode_length: int | None = None) -> None:
+        self.env = env.unwrapped
+        spec_length = env.spec.max_episode_steps if env.spec is not None else None
+        self.episode_length = int(episode_length or spec_length or 10)
+        self.params: BouncingBallParams = self.env.params
+        self._plan = np.zeros(0)
+
+    def predict(
+        self,
+        observation: np.ndarray,
+        state: Any = None,
+        episode_start: np.ndarray | None = None,
+        deterministic: bool = False,
+    ) -> tuple[np.ndarray, Any]:
+        p = self.params
+        step = int(self.env.state["step"][0])
+        if step == 0:
+            targets = self.env.task.targets(self.env.state["key"], self.episode_length)[0]
+            self._plan = optimal_apexes(targets, p.drop_height, p.radius)
+        speed = float(np.asarray(observation, dtype=np.float64).reshape(-1)[0])
+        target = (self._plan[step] - p.radius) / p.height_scale
+        e = np.clip(np.sqrt(target) / speed, 0.0, 1.0) if speed > 0 else 0.0
+        return np.array([2.0 * e - 1.0], dtype=np.float32), state
+
+
+class ProjectileFiringSolution(AnalyticController):
+    """Direct fire at full speed: the low-angle root of the wind quartic (PHYSICS.md section 6).
+
+    From the observation (target distance, launch height, wind along and across the line of fire) it
+    rebuilds the target offset in the target's frame, ``delta = (D, r - h, 0)``, and fires at ``speed_max``
+    with the smallest positive flight time (direct fire, not the lob). The azimuth it returns is already
+    relative to the target's bearing.
+    """
+
+    def __init__(self, params: ProjectileEnvParams) -> None:
+        self.params = params
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        p = self.params
+        n = len(obs)
+        zeros = np.zeros(n)
+        delta = np.stack([obs[:, 0] * p.target_distance_max, p.radius - obs[:, 1] * p.height_scale, zeros], axis=-1)
+        wind = np.stack([obs[:, 2] * p.wind_scale, zeros, obs[:, 3] * p.wind_scale], axis=-1)
+        elevation, azimuth, _, _ = projectile.firing_solution(delta, wind, p.speed_max, p.physics)
+        return np.stack([elevation / ELEVATION_LIMIT, azimuth / AZIMUTH_LIMIT, np.ones(n)], axis=-1)
+
+
+CONTROLLERS: dict[type[Task], Callable[[Any], AnalyticController]] = {
+    BouncingBallTask: BouncingBallMyopic,
+    ProjectileTask: ProjectileFiringSolution,
+}
+"""Reference controller of each task, built from the task's parameters."""
+
+
+def controller_for(env: Any) -> AnalyticController:
+    """The analytic reference controller of a vegym env (single, wrapped or native vector)."""
+    task = env.unwrapped.task
+    for task_cls, factory in CONTROLLERS.items():
+        if isinstance(task, task_cls):
+            return factory(task.params)
+    raise ValueError(f"no analytic controller for {type(task).__name__}")

@@ -1,0 +1,45 @@
+"""vegym: Gymnasium environments from the physical-simulation chapter, with its analytic controllers.
+
+Importing the package registers every env under the ``vegym/`` namespace. In worker processes started
+with ``spawn`` (or anywhere ``vegym`` may not be imported yet) use the ``"vegym:vegym/<Task>-v0"`` form,
+which makes Gymnasium import the package first.
+"""
+
+from __future__ import annotations
+
+from gymnasium.envs.registration import register, registry
+
+__version__ = "0.1.0"
+
+ENVS: dict[str, dict[str, object]] = {
+    "vegym/BouncingBall-v0": {
+        "module": "vegym.envs.bouncing_ball",
+        "env": "BouncingBallEnv",
+        "max_episode_steps": 10,
+        "summary": "choose the restitution at each impact to reach target apex heights",
+    },
+    "vegym/Projectile-v0": {
+        "module": "vegym.envs.projectile",
+        "env": "ProjectileEnv",
+        "max_episode_steps": 1,
+        "summary": "aim a launcher at a ground target in a constant wind (one shot)",
+    },
+}
+"""Registered env ids: the module, the env class (its vector twin is ``<Name>VectorEnv`` minus ``Env``),
+the episode length and a one-line description."""
+
+
+def _register_all() -> None:
+    for env_id, spec in ENVS.items():
+        if env_id in registry:
+            continue
+        name = str(spec["env"])
+        register(
+            id=env_id,
+            entry_point=f"{spec['module']}:{name}",
+            vector_entry_point=f"{spec['module']}:{name.removesuffix('Env')}VectorEnv",
+            max_episode_steps=int(spec["max_episode_steps"]),  # type: ignore[call-overload]
+        )
+
+
+_register_all()

@@ -1,0 +1,233 @@
+"""Projectile-v0: aim a launcher at a ground target in a constant wind; one step is one shot."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from gymnasium import spaces
+
+from vegym import rng
+from vegym.envs.base import Task, Transition, VegymEnv, VegymVectorEnv
+from vegym.params import Params, invalid, param
+from vegym.physics import projectile
+from vegym.physics.particle import STANDARD_GRAVITY
+from vegym.physics.projectile import ProjectileParams
+
+ELEVATION_LIMIT = np.pi / 2
+"""Elevation actions span [-pi/2, pi/2] (rad): every shot from straight down to straight up."""
+AZIMUTH_LIMIT = np.pi / 2
+"""Azimuth actions span +-pi/2 (rad) about the bearing of the target."""
+_SETUP_STREAM = 1
+
+
+@dataclass(frozen=True)
+class ProjectileEnvParams(Params):
+    """Parameters of Projectile-v0 (SI units, radians)."""
+
+    gravity: float = param(STANDARD_GRAVITY, "gravitational acceleration magnitude (m/s^2)", low=0.0, low_open=True)
+    radius: float = param(0.05, "projectile radius (m); it lands when its centre reaches y = radius", low=0.0)
+    launch_height_min: float = param(1.0, "lowest launch height of the projectile's centre (m)", low=0.0)
+    launch_height_max: float = param(20.0, "highest launch height of the projectile's centre (m)", low=0.0)
+    target_distance_min: float = param(10.0, "nearest target, horizontal distance (m)", low=0.0, low_open=True)
+    target_distance_max: float = param(
+        60.0, "farthest target (m); at most the guaranteed range (see reachable_distance)", low=0.0, low_open=True
+    )
+    wind_speed_max: float = param(5.0, "largest horizontal wind speed (m/s); direction uniform", low=0.0)
+    speed_min: float = param(5.0, "slowest launch speed (m/s, relative to the air)", low=0.0)
+    speed_max: float = param(30.0, "fastest launch speed (m/s, relative to the air)", low=0.0, low_open=True)
+    hit_radius: float = param(1.0, "a landing within this horizontal distance of the target is a hit (m)", low=0.0)
+    hit_bonus: float = param(1.0, "reward added for a hit", low=0.0)
+
+    def validate(self) -> None:
+        if self.launch_height_min < self.radius:
+            raise invalid("launch_height_min", self.launch_height_min, f"[radius={self.radius}, launch_height_max]")
+        if self.launch_height_max < self.launch_height_min:
+            raise invalid(
+                "launch_height_max", self.launch_height_max, f"[launch_height_min={self.launch_height_min}, inf)"
+            )
+        if self.target_distance_min > self.target_distance_max:
+            raise invalid(
+                "target_distance_min", self.target_distance_min, f"(0, target_distance_max={self.target_distance_max}]"
+            )
+        if self.speed_min > self.speed_max:
+            raise invalid("speed_min", self.speed_min, f"[0, speed_max={self.speed_max}]")
+        if self.wind_speed_max >= self.speed_max:
+            raise invalid("wind_speed_max", self.wind_speed_max, f"[0, speed_max={self.speed_max})")
+        if self.target_distance_max > self.reachable_distance:
+            raise invalid(
+                "target_distance_max",
+                self.target_distance_max,
+                f"(0, reachable_distance={self.reachable_distance:.4g}]",
+            )
+
+    @property
+    def physics(self) -> ProjectileParams:
+        """The projectile physics parameters."""
+        return ProjectileParams(gravity=self.gravity, radius=self.radius)
+
+    @property
+    def reachable_distance(self) -> float:
+        """Distance (m) every target within which is reachable at ``speed_max`` in any allowed wind.
+
+        The wind-free maximum range at ``speed_max - wind_speed_max`` from the lowest launch height: a ground
+        velocity u of that speed reaches the target, and the air-relative launch velocity ``u - w`` then has a
+        speed of at most ``speed_max``; a target reachable at some speed is reachable at every higher one.
+        """
+        return projectile.max_range(
+            self.speed_max - self.wind_speed_max, self.launch_height_min - self.radius, self.physics
+        )
+
+    @property
+    def wind_scale(self) -> float:
+        """Normaliser of the observed wind (m/s)."""
+        return self.wind_speed_max if self.wind_speed_max > 0 else 1.0
+
+    @property
+    def height_scale(self) -> float:
+        """Normaliser of the observed launch height (m)."""
+        return max(self.launch_height_max, 1.0)
+
+
+class ProjectileTask(Task[ProjectileEnvParams]):
+    """Batched logic of Projectile-v0 (see :class:`ProjectileEnv`)."""
+
+    params_cls = ProjectileEnvParams
+    renderer = "vegym.render.projectile:ProjectileRenderer"
+
+    def __init__(self, params: ProjectileEnvParams) -> None:
+        super().__init__(params)
+        self.observation_space = spaces.Box(
+            np.array([0, 0, -1, -1], np.float32), np.array([1, 1, 1, 1], np.float32), dtype=np.float32
+        )
+        self.action_space = spaces.Box(-1.0, 1.0, (3,), np.float32)
+
+    @property
+    def control_rate(self) -> float:
+        return 1.0
+
+    def initial_state(self, keys: np.ndarray) -> dict[str, np.ndarray]:
+        p = self.params
+        u = rng.uniform(keys, _SETUP_STREAM, 5)
+        n = len(keys)
+        height = p.launch_height_min + (p.launch_height_max - p.launch_height_min) * u[:, 0]
+        distance = p.target_distance_min + (p.target_distance_max - p.target_distance_min) * u[:, 1]
+        bearing = np.pi * (2.0 * u[:, 2] - 1.0)
+        wind_speed = p.wind_speed_max * u[:, 3]
+        wind_direction = np.pi * (2.0 * u[:, 4] - 1.0)
+        zeros = np.zeros(n)
+        return {
+            "launch_position": np.stack([zeros, height, zeros], axis=-1),
+            "target": np.stack([distance * np.cos(bearing), zeros, distance * np.sin(bearing)], axis=-1),
+            "wind": np.stack([wind_speed * np.cos(wind_direction), zeros, wind_speed * np.sin(wind_direction)], -1),
+            "landing_point": np.full((n, 3), np.nan),
+        }
+
+    @staticmethod
+    def target_frame(state: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Horizontal distance (n,), bearing (n,) and unit vectors (n, 3) along and across the line of fire.
+
+        The bearing is the book azimuth of the target (from +x toward +z); "across" is the direction of
+        increasing azimuth, so a relative azimuth ``delta`` fires along ``cos(delta) along + sin(delta) across``.
+        """
+        offset = state["target"] - state["launch_position"]
+        distance = np.hypot(offset[:, 0], offset[:, 2])
+        bearing = np.arctan2(offset[:, 2], offset[:, 0])
+        zeros = np.zeros_like(bearing)
+        along = np.stack([np.cos(bearing), zeros, np.sin(bearing)], axis=-1)
+        across = np.stack([-np.sin(bearing), zeros, np.cos(bearing)], axis=-1)
+        return distance, bearing, np.stack([along, across])
+
+    def step(self, state: dict[str, np.ndarray], action: np.ndarray) -> Transition:
+        p = self.params
+        elevation = ELEVATION_LIMIT * action[:, 0]
+        _, bearing, _ = self.target_frame(state)
+        azimuth = bearing + AZIMUTH_LIMIT * action[:, 1]
+        speed = p.speed_min + 0.5 * (action[:, 2] + 1.0) * (p.speed_max - p.speed_min)
+        velocity = projectile.launch_velocity(elevation, azimuth, speed)
+        landing, flight_time = projectile.impact_point(state["launch_position"], velocity, state["wind"], p.physics)
+        miss = np.hypot(landing[:, 0] - state["target"][:, 0], landing[:, 2] - state["target"][:, 2])
+        hit = miss <= p.hit_radius
+        miss_term = -miss / p.target_distance_max
+        hit_term = np.where(hit, p.hit_bonus, 0.0)
+        info = {
+            "launch_position": state["launch_position"],
+            "launch_velocity": velocity,
+            "wind": state["wind"],
+            "gravity": np.full(len(miss), p.gravity),
+            "landing_point": landing,
+            "flight_time": flight_time,
+            "target": state["target"],
+            "miss_distance": miss,
+            "reward_terms": {"miss": miss_term, "hit": hit_term},
+            "is_success": hit,
+        }
+        new_state = {**state, "landing_point": landing}
+        return Transition(new_state, miss_term + hit_term, np.ones(len(miss), dtype=bool), info)
+
+    def observe(self, state: dict[str, np.ndarray]) -> np.ndarray:
+        p = self.params
+        distance, _, (along, across) = self.target_frame(state)
+        wind = state["wind"]
+        return np.stack(
+            [
+                distance / p.target_distance_max,
+                state["launch_position"][:, 1] / p.height_scale,
+                np.einsum("ij,ij->i", wind, along) / p.wind_scale,
+                np.einsum("ij,ij->i", wind, across) / p.wind_scale,
+            ],
+            axis=-1,
+        ).astype(np.float32)
+
+
+class ProjectileEnv(VegymEnv[ProjectileEnvParams]):
+    """Aiming: fire a projectile from a raised launcher so that it lands on a ground target, in a wind.
+
+    ## Description
+    The projectile of the chapter (8.63-8.71) with the cross-wind remark completed (PHYSICS.md section 6):
+    a constant horizontal wind w drifts the projectile, ``p(t) = p0 + (v0 d + w) t + 1/2 g_vec t^2``, and the
+    shot ends at the exact time its centre reaches ``y = radius``. The launcher stands at ``(0, h, 0)``; the
+    target lies on the ground at a random bearing and distance; the wind is random and observed. One step
+    is one shot.
+
+    ## Action Space
+    ``Box(-1, 1, (3,), float32)``: elevation ``a0 * pi/2`` above the horizon, azimuth ``a1 * pi/2`` relative
+    to the bearing of the target (positive toward increasing book azimuth, i.e. from +x toward +z), and
+    launch speed ``speed_min + (a2 + 1)/2 * (speed_max - speed_min)`` relative to the air.
+
+    ## Observation Space
+    ``Box([0, 0, -1, -1], [1, 1, 1, 1], float32)``, in the target's frame: horizontal distance to the target
+    over ``target_distance_max``, launch height over ``max(launch_height_max, 1 m)``, and the wind components
+    along and across the line of fire over ``wind_speed_max`` (or 1 m/s without wind).
+
+    ## Rewards
+    ``-miss / target_distance_max`` (term ``miss``) plus ``hit_bonus`` if the landing point is within
+    ``hit_radius`` of the target (term ``hit``); ``miss`` is the horizontal distance.
+
+    ## Starting State
+    Launch height, target distance, target bearing, wind speed and wind direction uniform in their ranges.
+    Reachable envelope: every target is reachable at ``speed_max``, since ``target_distance_max`` must not
+    exceed ``reachable_distance``, the wind-free maximum range at ``speed_max - wind_speed_max`` from the
+    lowest launch height (with the defaults 63.6 m >= 60 m).
+
+    ## Episode End
+    Terminated after the shot (one step). ``info["is_success"]``: the shot is a hit.
+
+    ## Arguments
+    ``gymnasium.make("vegym/Projectile-v0", render_mode=None, **params)`` with the fields of
+    :class:`ProjectileEnvParams`. ``info``: ``launch_position``, ``launch_velocity`` (air-relative),
+    ``wind``, ``gravity``, ``landing_point`` (centre at contact, y = radius), ``flight_time``, ``target``,
+    ``miss_distance`` (all SI, y up), ``reward_terms``, ``is_success``. Reference controller: the
+    quartic firing solution at ``speed_max``, low-angle (direct fire) root (``agents.analytic``).
+
+    ## Version History
+    * v0: initial version.
+    """
+
+    task_cls = ProjectileTask
+
+
+class ProjectileVectorEnv(VegymVectorEnv[ProjectileEnvParams]):
+    """Native vector twin of :class:`ProjectileEnv` (same task code, NEXT_STEP autoreset)."""
+
+    task_cls = ProjectileTask

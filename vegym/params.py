@@ -1,0 +1,101 @@
+"""Frozen, self-validating parameter dataclasses.
+
+Every physical or task parameter in vegym is a field of a frozen dataclass built with :func:`param`,
+which records the allowed range and a one-line description. :class:`Params` checks types and ranges in
+``__post_init__`` and raises ``ValueError`` naming the parameter, its value and the allowed range.
+Derived quantities are properties, never stored fields, so they cannot go stale.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import typing
+from typing import Any, ClassVar
+
+
+def param(
+    default: Any,
+    doc: str,
+    *,
+    low: float = -math.inf,
+    high: float = math.inf,
+    low_open: bool = False,
+    high_open: bool = False,
+) -> Any:
+    """A dataclass field with a default, a description and an allowed interval.
+
+    ``low_open``/``high_open`` exclude the bound itself (``(low, high]`` etc.).
+    """
+    return dataclasses.field(
+        default=default,
+        metadata={"doc": doc, "low": low, "high": high, "low_open": low_open, "high_open": high_open},
+    )
+
+
+def interval_text(meta: typing.Mapping[str, Any]) -> str:
+    """The allowed interval of a field as text, e.g. ``(0, inf)`` or ``[0, 1]``."""
+    left = "(" if meta["low_open"] or meta["low"] == -math.inf else "["
+    right = ")" if meta["high_open"] or meta["high"] == math.inf else "]"
+    return f"{left}{meta['low']:g}, {meta['high']:g}{right}"
+
+
+class Params:
+    """Mixin for ``@dataclass(frozen=True)`` parameter sets: type and range checks on construction.
+
+    Subclasses add cross-field checks by overriding :meth:`validate` (raise :func:`invalid`).
+    """
+
+    _hints: ClassVar[dict[type, dict[str, Any]]] = {}
+
+    def __post_init__(self) -> None:
+        hints = Params._hints.setdefault(type(self), typing.get_type_hints(type(self)))
+        for f in dataclasses.fields(self):  # type: ignore[arg-type]
+            value = getattr(self, f.name)
+            kind = hints[f.name]
+            if kind is bool:
+                if not isinstance(value, bool):
+                    raise ValueError(f"{f.name}={value!r} must be a bool (True or False)")
+                continue
+            if kind is int:
+                if isinstance(value, bool) or not isinstance(value, int):
+                    raise ValueError(f"{f.name}={value!r} must be an integer in {interval_text(f.metadata)}")
+            elif kind is float:
+                if isinstance(value, bool) or not isinstance(value, (int, float)):
+                    raise ValueError(f"{f.name}={value!r} must be a real number in {interval_text(f.metadata)}")
+                value = float(value)
+                object.__setattr__(self, f.name, value)
+            else:
+                continue
+            if "low" in f.metadata:
+                self._check_range(f.name, value, f.metadata)
+        self.validate()
+
+    @staticmethod
+    def _check_range(name: str, value: float, meta: typing.Mapping[str, Any]) -> None:
+        low, high = meta["low"], meta["high"]
+        too_low = value <= low if meta["low_open"] else value < low
+        too_high = value >= high if meta["high_open"] else value > high
+        if math.isnan(value) or too_low or too_high:
+            raise ValueError(f"{name}={value!r} is outside the allowed range {interval_text(meta)}")
+
+    def validate(self) -> None:
+        """Cross-field checks; the default has none."""
+
+    def as_dict(self) -> dict[str, Any]:
+        """The parameters as plain keyword arguments."""
+        return dataclasses.asdict(self)  # type: ignore[call-overload]
+
+    @classmethod
+    def describe(cls) -> str:
+        """One line per field: name, default, allowed range, description (for docstrings and the CLI)."""
+        lines = []
+        for f in dataclasses.fields(cls):  # type: ignore[arg-type]
+            rng = f" in {interval_text(f.metadata)}" if "low" in f.metadata else ""
+            lines.append(f"{f.name} (default {f.default!r}{rng}): {f.metadata.get('doc', '')}")
+        return "\n".join(lines)
+
+
+def invalid(name: str, value: Any, allowed: str) -> ValueError:
+    """The ``ValueError`` for a parameter that fails a cross-field check."""
+    return ValueError(f"{name}={value!r} is outside the allowed range {allowed}")

@@ -1,0 +1,140 @@
+"""Projectile with a constant drift wind, exact ground impact and the aiming solution (8.63-8.71).
+
+Corrected forms from PHYSICS.md section 6: the launch direction is
+``d = (cos(el) cos(az), sin(el), cos(el) sin(az))`` with the elevation ``el`` above the horizon and the
+azimuth ``az`` measured from +x toward +z (8.63-8.65); a constant wind ``w`` adds to the velocity *and* to
+the position, ``p(t) = p0 + (v0 d + w) t + 1/2 g_vec t^2`` (the chapter's cross-wind remark, completed);
+the ground impact is the time the centre of a projectile of radius ``r`` reaches ``y = r``, taken with
+the cancellation-free root of section 1.
+
+Conventions: y up, SI units, vectors as arrays of shape (n, 3) (a leading batch axis; (3,) broadcasts),
+gravity a positive magnitude. The wind is a kinematic drift (the chapter's model), so keep ``w_y = 0``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from vegym.params import Params, param
+from vegym.physics.particle import STANDARD_GRAVITY, time_to_ground
+
+
+@dataclass(frozen=True)
+class ProjectileParams(Params):
+    """A point-like (or spherical) projectile over the flat ground y = 0."""
+
+    gravity: float = param(STANDARD_GRAVITY, "gravitational acceleration magnitude (m/s^2)", low=0.0, low_open=True)
+    radius: float = param(0.0, "projectile radius (m); it lands when its centre reaches y = radius", low=0.0)
+
+    @property
+    def gravity_vector(self) -> np.ndarray:
+        """``(0, -g, 0)`` in m/s^2."""
+        return np.array([0.0, -self.gravity, 0.0])
+
+
+def launch_direction(elevation: np.ndarray, azimuth: np.ndarray) -> np.ndarray:
+    """Unit launch direction (n, 3) from elevation and azimuth in radians (8.63-8.65)."""
+    elevation = np.asarray(elevation, dtype=np.float64)
+    azimuth = np.asarray(azimuth, dtype=np.float64)
+    cos_el = np.cos(elevation)
+    return np.stack([cos_el * np.cos(azimuth), np.sin(elevation), cos_el * np.sin(azimuth)], axis=-1)
+
+
+def launch_velocity(elevation: np.ndarray, azimuth: np.ndarray, speed: np.ndarray) -> np.ndarray:
+    """Launch velocity (n, 3) in m/s relative to the air (8.66-8.68, without wind)."""
+    return np.asarray(speed, dtype=np.float64)[..., None] * launch_direction(elevation, azimuth)
+
+
+def position_at(
+    p0: np.ndarray, v0: np.ndarray, wind: np.ndarray, t: np.ndarray, params: ProjectileParams
+) -> np.ndarray:
+    """Position (n, 3) at time ``t`` (n,) after launch: ``p0 + (v0 + w) t + 1/2 g_vec t^2`` (8.69-8.71)."""
+    t = np.asarray(t, dtype=np.float64)[..., None]
+    return p0 + (v0 + wind) * t + 0.5 * params.gravity_vector * t * t
+
+
+def velocity_at(v0: np.ndarray, wind: np.ndarray, t: np.ndarray, params: ProjectileParams) -> np.ndarray:
+    """Ground-relative velocity (n, 3) at time ``t``: ``v0 + w + g_vec t``."""
+    return v0 + wind + params.gravity_vector * np.asarray(t, dtype=np.float64)[..., None]
+
+
+def impact_time(p0: np.ndarray, v0: np.ndarray, wind: np.ndarray, params: ProjectileParams) -> np.ndarray:
+    """Exact time (n,) at which the centre reaches ``y = radius`` (the corrected section 8.4.2)."""
+    u = np.asarray(v0, dtype=np.float64) + wind
+    return time_to_ground(np.asarray(p0)[..., 1], u[..., 1], params.radius, params.gravity)
+
+
+def impact_point(
+    p0: np.ndarray, v0: np.ndarray, wind: np.ndarray, params: ProjectileParams
+) -> tuple[np.ndarray, np.ndarray]:
+    """Landing point (n, 3), with ``y = radius``, and flight time (n,)."""
+    t = impact_time(p0, v0, wind, params)
+    point = position_at(p0, v0, wind, t, params)
+    point[..., 1] = params.radius
+    return point, t
+
+
+def firing_solution(
+    delta: np.ndarray, wind: np.ndarray, speed: np.ndarray, params: ProjectileParams, lob: bool = False
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Elevation, azimuth (rad), flight time (s) and a reachability mask to hit ``p0 + delta`` at ``speed``.
+
+    ``delta`` (n, 3) is the target's position relative to the launch point (for a projectile of radius r,
+    aim its centre at the target's ground point raised by r). With ``a = g_vec / 2`` the flight time T
+    solves the quartic of PHYSICS.md section 6,
+    ``|a|^2 T^4 + 2 (w.a) T^3 + (|w|^2 - 2 delta.a - v^2) T^2 - 2 (delta.w) T + |delta|^2 = 0``,
+    whose real positive roots are found batched (eigenvalues of the companion matrices, then two Newton
+    polishes). The smallest root is direct (low-angle) fire, the largest a lob. The launch direction is then
+    ``d = (delta - w T - a T^2) / (v T)``. Where no positive root exists the target is out of range at this
+    speed: the mask is False and the returned angles are the wind-free 45-degree shot toward the target.
+    """
+    delta = np.atleast_2d(np.asarray(delta, dtype=np.float64))
+    wind = np.broadcast_to(np.asarray(wind, dtype=np.float64), delta.shape)
+    speed = np.broadcast_to(np.asarray(speed, dtype=np.float64), delta.shape[:1])
+    a = 0.5 * params.gravity_vector
+    coeffs = np.stack(
+        [
+            np.full(speed.shape, a @ a),
+            2.0 * wind @ a,
+            np.einsum("ij,ij->i", wind, wind) - 2.0 * delta @ a - speed * speed,
+            -2.0 * np.einsum("ij,ij->i", delta, wind),
+            np.einsum("ij,ij->i", delta, delta),
+        ],
+        axis=-1,
+    )
+    monic = coeffs[:, 1:] / coeffs[:, :1]
+    companion = np.zeros((len(speed), 4, 4))
+    companion[:, 0, :] = -monic
+    companion[:, 1, 0] = companion[:, 2, 1] = companion[:, 3, 2] = 1.0
+    roots = np.linalg.eigvals(companion)
+    real = np.abs(roots.imag) <= 1e-7 * np.maximum(1.0, np.abs(roots.real))
+    candidates = np.where(real & (roots.real > 0), roots.real, np.nan)
+    reachable = np.any(np.isfinite(candidates), axis=-1)
+    with np.errstate(all="ignore"):
+        flight_time = np.nanmax(candidates, axis=-1) if lob else np.nanmin(candidates, axis=-1)
+        derivative = coeffs[:, :4] * np.array([4.0, 3.0, 2.0, 1.0])
+        for _ in range(2):
+            value = np.polynomial.polynomial.polyval(flight_time, coeffs[:, ::-1].T, tensor=False)
+            slope = np.polynomial.polynomial.polyval(flight_time, derivative[:, ::-1].T, tensor=False)
+            step = np.where(np.abs(slope) > 0, value / slope, 0.0)
+            flight_time = flight_time - np.where(np.isfinite(step), step, 0.0)
+        t = flight_time[:, None]
+        direction = (delta - wind * t - a * t * t) / (speed[:, None] * t)
+    direction /= np.linalg.norm(direction, axis=-1, keepdims=True)
+    elevation = np.arcsin(np.clip(direction[:, 1], -1.0, 1.0))
+    azimuth = np.arctan2(direction[:, 2], direction[:, 0])
+    bearing = np.arctan2(delta[:, 2], delta[:, 0])
+    elevation = np.where(reachable, elevation, np.pi / 4)
+    azimuth = np.where(reachable, azimuth, bearing)
+    return elevation, azimuth, np.where(reachable, flight_time, np.nan), reachable
+
+
+def max_range(speed: float, height: float, params: ProjectileParams) -> float:
+    """Greatest wind-free horizontal range (m) at ``speed`` from ``height`` above the landing level.
+
+    Closed form: ``(v / g) sqrt(v^2 + 2 g h)`` at the elevation ``asin(v / sqrt(2 (v^2 + g h)))``.
+    """
+    g = params.gravity
+    return float(speed / g * np.sqrt(speed * speed + 2.0 * g * height))

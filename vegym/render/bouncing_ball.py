@@ -1,0 +1,75 @@
+"""Side view of BouncingBall-v0: height over time, the flights so far, the targets, the numbers."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from vegym.envs.bouncing_ball import BouncingBallParams
+from vegym.render import canvas
+
+WIDTH, HEIGHT = 640, 400
+
+
+class BouncingBallRenderer:
+    """Records each bounce of a single env and draws the whole episode so far."""
+
+    def __init__(self, params: BouncingBallParams) -> None:
+        self.params = params
+        self.flights: list[tuple[float, float, float, float]] = []  # (t_impact, rebound speed, apex, target)
+        self.first_impact = 0.0
+        self.time = 0.0
+        self.targets: np.ndarray = np.zeros(0)
+        self.last: dict[str, Any] = {}
+
+    def reset(self, state: dict[str, np.ndarray]) -> None:
+        self.flights = []
+        self.first_impact = self.time = float(state["time"][0])
+        self.targets = state["targets"][0].copy()
+        self.last = {}
+
+    def record(self, state: dict[str, np.ndarray], info: dict[str, Any]) -> None:
+        rebound = info["restitution"] * info["impact_speed"]
+        self.flights.append((self.time, rebound, info["apex_height"], info["target_height"]))
+        self.time = float(state["time"][0])
+        self.targets = state["targets"][0].copy()
+        self.last = info
+
+    def draw(self) -> np.ndarray:
+        p = self.params
+        g, r = p.gravity, p.radius
+        surface = canvas.new_surface(WIDTH, HEIGHT)
+        span = max(self.time + 1.5, 4.0)
+        panel = canvas.Panel(surface, (50, 60, WIDTH - 70, HEIGHT - 90), (0.0, span, 0.0, p.drop_height * 1.08))
+        panel.frame(canvas.LIGHT)
+        panel.line((0, 0), (span, 0), canvas.BLACK, 2)
+        drop = np.linspace(0.0, self.first_impact, 30)
+        panel.polyline(np.stack([drop, p.drop_height - 0.5 * g * drop**2], -1), canvas.BLUE)
+        for start, speed, apex, target in self.flights:
+            duration = 2.0 * speed / g
+            if duration > 0:
+                t = np.linspace(0.0, duration, 40)
+                panel.polyline(np.stack([start + t, r + speed * t - 0.5 * g * t * t], -1), canvas.BLUE)
+            end = start + max(duration, 0.15)
+            panel.dashed((start, target), (end, target), canvas.ORANGE, dashes=4)
+            panel.dot((start + 0.5 * duration, apex), 3, canvas.BLUE)
+        for k, target in enumerate(self.targets):
+            x0 = self.time + 0.25 * k
+            panel.line((x0, target), (x0 + 0.2, target), canvas.RED if k == 0 else canvas.ORANGE, 3 if k == 0 else 1)
+        panel.circle((self.time, r), max(r, 0.04), canvas.BLUE)
+        for h in np.arange(0.0, p.drop_height * 1.05, 0.5):
+            x, y = panel.to_px(0.0, h)
+            canvas.text(surface, [f"{h:.1f}"], (x - 34, y - 6), 16, canvas.GREY)
+        bounce = len(self.flights)
+        lines = [f"bounce {bounce}   t = {self.time:.2f} s   next target {self.targets[0]:.2f} m (red)"]
+        if self.last:
+            lines.append(
+                f"e = {self.last['restitution']:.3f}   apex {self.last['apex_height']:.3f} m   "
+                f"target {self.last['target_height']:.3f} m   impact {self.last['impact_speed']:.2f} m/s"
+            )
+        canvas.text(surface, lines, (12, 10), 20)
+        canvas.text(
+            surface, ["height of centre (m) over time (s); dashes: targets"], (12, HEIGHT - 24), 16, canvas.GREY
+        )
+        return canvas.to_array(surface)

@@ -1,0 +1,125 @@
+"""A small drawing surface in world coordinates (pygame, offscreen): shared by every renderer.
+
+Nothing here opens a window; :mod:`vegym.render.window` does that for ``render_mode="human"``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+try:
+    import pygame
+except ImportError as exc:  # pragma: no cover - exercised only without the render extra
+    raise ImportError('rendering needs pygame: pip install "vegym[render]"') from exc
+
+Color = tuple[int, int, int]
+WHITE: Color = (255, 255, 255)
+BLACK: Color = (20, 20, 20)
+GREY: Color = (150, 150, 150)
+LIGHT: Color = (225, 225, 225)
+BLUE: Color = (40, 90, 200)
+RED: Color = (210, 50, 40)
+GREEN: Color = (30, 150, 60)
+ORANGE: Color = (235, 140, 20)
+
+_FONTS: dict[int, pygame.font.Font] = {}
+
+
+def font(size: int) -> pygame.font.Font:
+    """pygame's default font at ``size`` pixels (cached; needs no display)."""
+    if size not in _FONTS:
+        pygame.font.init()
+        _FONTS[size] = pygame.font.Font(None, size)
+    return _FONTS[size]
+
+
+class Panel:
+    """A rectangle of a surface mapped to a world box ``[x0, x1] x [y0, y1]`` (y up), equal scales if asked."""
+
+    def __init__(
+        self,
+        surface: pygame.Surface,
+        rect: tuple[int, int, int, int],
+        world: tuple[float, float, float, float],
+        equal_aspect: bool = False,
+    ) -> None:
+        self.surface = surface
+        self.rect = pygame.Rect(rect)
+        x0, x1, y0, y1 = world
+        sx = self.rect.width / max(x1 - x0, 1e-9)
+        sy = self.rect.height / max(y1 - y0, 1e-9)
+        if equal_aspect:
+            sx = sy = min(sx, sy)
+        self.scale = (sx, sy)
+        cx, cy = 0.5 * (x0 + x1), 0.5 * (y0 + y1)
+        self.origin = (self.rect.centerx - sx * cx, self.rect.centery + sy * cy)
+
+    def to_px(self, x: float, y: float) -> tuple[int, int]:
+        """Pixel of the world point (x, y)."""
+        return int(round(self.origin[0] + self.scale[0] * x)), int(round(self.origin[1] - self.scale[1] * y))
+
+    def length_px(self, length: float) -> int:
+        """Pixels of a world length along x."""
+        return max(1, int(round(self.scale[0] * length)))
+
+    def frame(self, color: Color = GREY) -> None:
+        pygame.draw.rect(self.surface, color, self.rect, 1)
+
+    def polyline(self, points: np.ndarray, color: Color, width: int = 2) -> None:
+        """Connect world points (k, 2)."""
+        if len(points) >= 2:
+            pygame.draw.lines(self.surface, color, False, [self.to_px(x, y) for x, y in points], width)
+
+    def line(self, a: Sequence[float], b: Sequence[float], color: Color, width: int = 1) -> None:
+        pygame.draw.line(self.surface, color, self.to_px(*a), self.to_px(*b), width)
+
+    def dashed(self, a: Sequence[float], b: Sequence[float], color: Color, dashes: int = 12) -> None:
+        """A dashed segment from world point a to b."""
+        p = np.linspace(np.asarray(a, float), np.asarray(b, float), 2 * dashes + 1)
+        for i in range(0, 2 * dashes, 2):
+            self.line(p[i], p[i + 1], color)
+
+    def circle(self, center: Sequence[float], radius: float, color: Color, width: int = 0) -> None:
+        pygame.draw.circle(self.surface, color, self.to_px(*center), self.length_px(radius), width)
+
+    def dot(self, center: Sequence[float], pixels: int, color: Color) -> None:
+        pygame.draw.circle(self.surface, color, self.to_px(*center), pixels)
+
+    def polygon(self, points: np.ndarray, color: Color, width: int = 0) -> None:
+        pygame.draw.polygon(self.surface, color, [self.to_px(x, y) for x, y in points], width)
+
+    def arrow(self, start: Sequence[float], vector: Sequence[float], color: Color, width: int = 2) -> None:
+        """An arrow from ``start`` along the world ``vector``."""
+        a = np.asarray(start, float)
+        b = a + np.asarray(vector, float)
+        pa, pb = np.array(self.to_px(*a), float), np.array(self.to_px(*b), float)
+        pygame.draw.line(self.surface, color, pa, pb, width)
+        d = pb - pa
+        if np.hypot(*d) > 1:
+            d /= np.hypot(*d)
+            side = np.array([-d[1], d[0]])
+            pygame.draw.polygon(self.surface, color, [pb, pb - 8 * d + 4 * side, pb - 8 * d - 4 * side])
+
+
+def text(
+    surface: pygame.Surface, lines: Sequence[str], xy: tuple[int, int], size: int = 18, color: Color = BLACK
+) -> None:
+    """Write lines of text downward from pixel ``xy``."""
+    x, y = xy
+    for line in lines:
+        surface.blit(font(size).render(line, True, color), (x, y))
+        y += int(size * 0.95)
+
+
+def new_surface(width: int, height: int) -> pygame.Surface:
+    """A white offscreen surface."""
+    surface = pygame.Surface((width, height))
+    surface.fill(WHITE)
+    return surface
+
+
+def to_array(surface: pygame.Surface) -> np.ndarray:
+    """The surface as a uint8 (height, width, 3) RGB array."""
+    return np.ascontiguousarray(np.transpose(pygame.surfarray.pixels3d(surface), (1, 0, 2)), dtype=np.uint8)

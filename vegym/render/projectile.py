@@ -1,0 +1,77 @@
+"""Projectile-v0: side view along the line of fire and a top view, with the trajectory and the numbers."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from vegym.envs.projectile import ProjectileEnvParams, ProjectileTask
+from vegym.physics import projectile
+from vegym.render import canvas
+
+WIDTH, HEIGHT = 640, 480
+
+
+class ProjectileRenderer:
+    """Draws the launcher, the target, the wind and the last shot of a single env."""
+
+    def __init__(self, params: ProjectileEnvParams) -> None:
+        self.params = params
+        self.state: dict[str, np.ndarray] = {}
+        self.shot: dict[str, Any] = {}
+
+    def reset(self, state: dict[str, np.ndarray]) -> None:
+        self.state = {k: v[0] for k, v in state.items()}
+        self.shot = {}
+
+    def record(self, state: dict[str, np.ndarray], info: dict[str, Any]) -> None:
+        self.shot = info
+
+    def draw(self) -> np.ndarray:
+        p = self.params
+        s = self.state
+        distance, _, (along, across) = ProjectileTask.target_frame({k: v[None] for k, v in s.items()})
+        along, across, distance = along[0], across[0], float(distance[0])
+        p0 = s["launch_position"]
+        surface = canvas.new_surface(WIDTH, HEIGHT)
+        reach = p.target_distance_max * 1.15
+        side = canvas.Panel(
+            surface, (40, 50, WIDTH - 60, 250), (-5.0, reach, -2.0, max(p.launch_height_max, 10.0) * 1.6)
+        )
+        top = canvas.Panel(surface, (40, 320, WIDTH - 60, 140), (-5.0, reach, -reach / 8, reach / 8))
+        for panel in (side, top):
+            panel.frame(canvas.LIGHT)
+        side.line((-5.0, 0.0), (reach, 0.0), canvas.BLACK, 2)
+        side.line((0.0, 0.0), (0.0, p0[1]), canvas.BLACK, 4)
+        top.line((-5.0, 0.0), (reach, 0.0), canvas.LIGHT)
+        for panel in (side, top):
+            panel.line((distance - p.hit_radius, 0.0), (distance + p.hit_radius, 0.0), canvas.RED, 5)
+            panel.dot((distance, 0.0), 4, canvas.RED)
+        wind = s["wind"]
+        w_along, w_across = float(wind @ along), float(wind @ across)
+        wind_arrow = np.array([w_along, w_across]) * reach / 40.0
+        top.arrow((reach * 0.8, 0.0), wind_arrow, canvas.GREEN)
+        lines = [
+            f"target {distance:.1f} m   launch height {p0[1]:.1f} m   wind {w_along:+.1f} along, {w_across:+.1f} across m/s"
+        ]
+        if self.shot:
+            v0, w = self.shot["launch_velocity"], self.shot["wind"]
+            t = np.linspace(0.0, self.shot["flight_time"], 80)
+            path = projectile.position_at(p0[None], v0[None], w[None], t, p.physics) - p0
+            side.polyline(np.stack([path @ along, path[:, 1] + p0[1]], -1), canvas.BLUE)
+            top.polyline(np.stack([path @ along, path @ across], -1), canvas.BLUE)
+            landing = self.shot["landing_point"] - p0
+            for panel, y in ((side, p.radius), (top, float(landing @ across))):
+                panel.dot((float(landing @ along), y), 4, canvas.BLUE)
+            speed = float(np.linalg.norm(v0))
+            elevation = np.degrees(np.arcsin(v0[1] / speed)) if speed > 0 else 0.0
+            verdict = "HIT" if self.shot["is_success"] else "miss"
+            lines.append(
+                f"elevation {elevation:.1f} deg   speed {speed:.1f} m/s   flight {self.shot['flight_time']:.2f} s   "
+                f"{verdict} by {self.shot['miss_distance']:.2f} m"
+            )
+        canvas.text(surface, lines, (12, 8), 19)
+        canvas.text(surface, ["side view along the line of fire (m)"], (44, 52), 16, canvas.GREY)
+        canvas.text(surface, ["top view; green arrow: wind"], (44, 322), 16, canvas.GREY)
+        return canvas.to_array(surface)
