@@ -266,7 +266,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             info_mask = ~resetting
         truncated = np.zeros(self.num_envs, dtype=bool)
         if self.max_episode_steps is not None:
-            truncated = (self.state["step"] >= self.max_episode_steps) & ~terminated & info_mask
+            truncated = (self.state["step"] >= self.max_episode_steps) & info_mask
         self._autoreset = terminated | truncated
         obs = self.task.observe(self.state)
         return obs, reward.astype(np.float64), terminated, truncated, self._vector_info(info, info_mask)

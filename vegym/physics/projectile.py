@@ -113,7 +113,7 @@ def firing_solution(
     candidates = np.where(real & (roots.real > 0), roots.real, np.nan)
     reachable = np.any(np.isfinite(candidates), axis=-1)
     with np.errstate(all="ignore"):
-        flight_time = np.nanmax(candidates, axis=-1) if lob else np.nanmin(candidates, axis=-1)
+        flight_time = (np.fmax if lob else np.fmin).reduce(candidates, axis=-1)
         derivative = coeffs[:, :4] * np.array([4.0, 3.0, 2.0, 1.0])
         for _ in range(2):
             value = np.polynomial.polynomial.polyval(flight_time, coeffs[:, ::-1].T, tensor=False)

@@ -1,0 +1,138 @@
+"""BouncingBall-v0: exact bounces, the myopic restitution law, the exact optimum."""
+
+from __future__ import annotations
+
+import itertools
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import vegym  # noqa: F401
+from agents.analytic import BouncingBallOracle, controller_for
+from vegym.envs.bouncing_ball import BouncingBallParams, optimal_apexes
+
+ENV_ID = "vegym/BouncingBall-v0"
+
+
+def episode_returns(env: gym.Env, policy, seeds: range) -> np.ndarray:
+    returns = []
+    for seed in seeds:
+        obs, _ = env.reset(seed=seed)
+        total, done = 0.0, False
+        while not done:
+            action = policy(obs)
+            obs, reward, terminated, truncated, _ = env.step(action)
+            total += reward
+            done = terminated or truncated
+        returns.append(total)
+    return np.array(returns)
+
+
+def test_info_describes_the_bounce_and_the_apex_is_exact() -> None:
+    env = gym.make(ENV_ID, radius=0.2, drop_height=4.0, target_max=3.5)
+    env.reset(seed=0)
+    g = 9.81
+    speed = np.sqrt(2 * g * 3.8)
+    for a in (0.6, -0.2, 1.0, 0.3):
+        _, reward, _, _, info = env.step(np.array([a], dtype=np.float32))
+        e = (a + 1) / 2
+        assert info["impact_speed"] == pytest.approx(speed, rel=1e-12)
+        assert info["restitution"] == pytest.approx(e, abs=1e-7)
+        assert info["apex_height"] == pytest.approx(0.2 + (info["restitution"] * speed) ** 2 / (2 * g), rel=1e-12)
+        assert reward == pytest.approx(-abs(info["apex_height"] - info["target_height"]) / 3.8, rel=1e-12)
+        assert (info["radius"], info["gravity"]) == (0.2, 9.81)
+        speed = info["restitution"] * speed
+
+
+def test_elastic_bounces_keep_the_apex_at_the_drop_height() -> None:
+    env = gym.make(ENV_ID, max_episode_steps=10_000)
+    env.reset(seed=0)
+    for _ in range(10_000):
+        _, _, terminated, _, info = env.step(np.array([1.0], dtype=np.float32))
+    assert not terminated
+    assert info["apex_height"] == pytest.approx(3.0, abs=1e-9)
+
+
+def test_zero_restitution_puts_the_ball_at_rest_and_terminates() -> None:
+    env = gym.make(ENV_ID)
+    env.reset(seed=0)
+    _, _, terminated, _, info = env.step(np.array([-1.0], dtype=np.float32))
+    assert terminated and info["apex_height"] == pytest.approx(0.1)
+
+
+def test_myopic_controller_reaches_every_reachable_target_to_1e_6() -> None:
+    env = gym.make(ENV_ID, max_episode_steps=20)
+    controller = controller_for(env)
+    reached = 0
+    for seed in range(100):
+        obs, _ = env.reset(seed=seed)
+        done = False
+        while not done:
+            reachable_apex = 0.1 + obs[1] * 2.9
+            obs, _, terminated, truncated, info = env.step(controller.predict(obs)[0])
+            done = terminated or truncated
+            if info["target_height"] <= reachable_apex - 1e-6:
+                rel = abs(info["apex_height"] - info["target_height"]) / (info["target_height"] - 0.1)
+                assert rel <= 1e-6
+                reached += 1
+            else:
+                assert info["restitution"] == pytest.approx(1.0)
+    assert reached > 400
+
+
+def test_oracle_plan_is_the_brute_force_optimum() -> None:
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        targets = rng.uniform(0.5, 3.2, 5)
+        plan = optimal_apexes(targets, 3.0, 0.1)
+        assert np.all(np.diff(plan) <= 0) and plan[0] <= 3.0
+        levels = np.unique(np.clip(np.append(targets, 3.0), 0.1, 3.0))
+        best = min(
+            np.abs(np.array(seq) - targets).sum()
+            for seq in itertools.product(levels, repeat=5)
+            if all(a >= b for a, b in itertools.pairwise(seq))
+        )
+        assert np.abs(plan - targets).sum() == pytest.approx(best, abs=1e-12)
+        fine = np.linspace(0.1, 3.0, 59)
+        for _ in range(20):  # no non-increasing sequence off the candidate levels does better
+            seq = np.sort(rng.choice(fine, 5))[::-1]
+            assert np.abs(seq - targets).sum() >= best - 1e-12
+
+
+def test_optimum_beats_myopic_everywhere_and_strictly_somewhere_and_both_beat_random() -> None:
+    env = gym.make(ENV_ID)
+    seeds = range(200)
+    myopic = episode_returns(env, lambda o: controller_for(env).predict(o)[0], seeds)
+    oracle_controller = BouncingBallOracle(env)
+    oracle = episode_returns(env, lambda o: oracle_controller.predict(o)[0], seeds)
+    env.action_space.seed(0)
+    random = episode_returns(env, lambda o: env.action_space.sample(), seeds)
+    assert np.all(oracle >= myopic - 1e-6)
+    assert np.mean(oracle > myopic + 1e-3) > 0.3
+    assert myopic.mean() > random.mean() + 1.0 and oracle.mean() > myopic.mean()
+
+
+def test_controller_predicts_batches_like_single_observations() -> None:
+    env = gym.make_vec(ENV_ID, num_envs=16, vectorization_mode="vector_entry_point")
+    obs, _ = env.reset(seed=3)
+    controller = controller_for(env)
+    batch, _ = controller.predict(obs)
+    assert batch.shape == (16, 1) and batch.dtype == np.float32
+    for i in range(16):
+        np.testing.assert_array_equal(controller.predict(obs[i])[0], batch[i])
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "name"),
+    [
+        ({"target_min": 0.05}, "target_min"),
+        ({"target_max": 3.5}, "target_max"),
+        ({"target_ratio_min": 1.5}, "target_ratio_min"),
+        ({"lookahead": 40}, "lookahead"),
+        ({"lookahead": 2.5}, "lookahead"),
+    ],
+)
+def test_invalid_parameters_raise_value_errors_naming_them(kwargs: dict, name: str) -> None:
+    with pytest.raises(ValueError, match=name):
+        BouncingBallParams(**kwargs)

@@ -1,0 +1,198 @@
+"""The contract every registered vegym env keeps: checkers, determinism, pickling, bounds, vector twin, errors."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import pickle
+import warnings
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from gymnasium.utils.env_checker import check_env as gym_check_env
+from stable_baselines3.common.env_checker import check_env as sb3_check_env
+
+import vegym
+
+ENV_IDS = list(vegym.ENVS)
+
+
+def random_actions(env_id: str, count: int, seed: int) -> np.ndarray:
+    """Uniform actions with some at the extremes of the box (they end episodes early in several tasks)."""
+    rng = np.random.default_rng(seed)
+    shape = gym.spec(env_id).make().action_space.shape
+    actions = rng.uniform(-1.0, 1.0, (count, *shape))
+    extreme = rng.random(count) < 0.15
+    actions[extreme] = rng.choice([-1.0, 1.0], size=(extreme.sum(), *shape))
+    return actions.astype(np.float32)
+
+
+def rollout(env: gym.Env, actions: np.ndarray, seed: int) -> list[tuple]:
+    """Obs, reward, terminated, truncated and info of every step, resetting when an episode ends."""
+    obs, _ = env.reset(seed=seed)
+    records = [(obs, 0.0, False, False, {})]
+    for action in actions:
+        obs, reward, terminated, truncated, info = env.step(action)
+        records.append((obs, reward, terminated, truncated, info))
+        if terminated or truncated:
+            obs, _ = env.reset()
+            records.append((obs, 0.0, False, False, {}))
+    return records
+
+
+def assert_same(a: object, b: object) -> None:
+    assert gym.utils.env_checker.data_equivalence(a, b, exact=True), f"{a!r} != {b!r}"
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_passes_gymnasium_and_sb3_checkers_without_warnings(env_id: str) -> None:
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        env = gym.make(env_id)
+        gym_check_env(env.unwrapped)
+        sb3_check_env(env.unwrapped, warn=True)
+    assert [str(w.message) for w in caught] == []
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_same_seed_gives_identical_rollouts(env_id: str) -> None:
+    actions = random_actions(env_id, 60, seed=1)
+    first = rollout(gym.make(env_id), actions, seed=7)
+    second = rollout(gym.make(env_id), actions, seed=7)
+    assert_same(first, second)
+    other = rollout(gym.make(env_id), actions, seed=8)
+    assert not gym.utils.env_checker.data_equivalence(first[0][0], other[0][0])
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_pickled_env_continues_identically(env_id: str) -> None:
+    env = gym.make(env_id)
+    actions = random_actions(env_id, 40, seed=2)
+    env.reset(seed=3)
+    env.step(actions[0])
+    clone = pickle.loads(pickle.dumps(env))
+    for action in actions[1:]:
+        a = env.step(action)
+        b = clone.step(action)
+        assert_same(a, b)
+        if a[2] or a[3]:
+            assert_same(env.reset(), clone.reset())
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_observations_stay_finite_and_inside_the_space(env_id: str) -> None:
+    env = gym.make_vec(env_id, num_envs=256, vectorization_mode="vector_entry_point")
+    obs, _ = env.reset(seed=0)
+    actions = random_actions(env_id, 300 * 256, seed=4).reshape(300, 256, -1)
+    for step_actions in actions:
+        assert np.all(np.isfinite(obs))
+        assert env.observation_space.contains(obs), env.single_observation_space
+        obs, reward, *_ = env.step(step_actions)
+        assert np.all(np.isfinite(reward))
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_vector_env_matches_single_envs_including_mixed_resets(env_id: str) -> None:
+    n, steps, seed = 4, 80, 11
+    vec = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point")
+    singles = [gym.make(env_id) for _ in range(n)]
+    actions = random_actions(env_id, steps * n, seed=5).reshape(steps, n, -1)
+    obs, _ = vec.reset(seed=seed)
+    for i, env in enumerate(singles):
+        assert_same(env.reset(seed=seed + i)[0], obs[i])
+    needs_reset = np.zeros(n, dtype=bool)
+    mixed_steps = 0
+    for step_actions in actions:
+        mixed_steps += int(0 < needs_reset.sum() < n)
+        obs, reward, terminated, truncated, info = vec.step(step_actions)
+        for i, env in enumerate(singles):
+            if needs_reset[i]:
+                single_obs, _ = env.reset()
+                assert_same(single_obs, obs[i])
+                assert reward[i] == 0.0 and not terminated[i] and not truncated[i]
+                assert not info.get("_reward_terms", np.zeros(n, dtype=bool))[i]
+                continue
+            s_obs, s_reward, s_terminated, s_truncated, s_info = env.step(step_actions[i])
+            assert_same(s_obs, obs[i])
+            assert (s_reward, s_terminated, s_truncated) == (reward[i], terminated[i], truncated[i])
+            for key, value in s_info.items():
+                if isinstance(value, dict):
+                    for term, term_value in value.items():
+                        np.testing.assert_array_equal(term_value, info[key][term][i])
+                else:
+                    np.testing.assert_array_equal(value, info[key][i])
+        needs_reset = terminated | truncated
+    if gym.spec(env_id).max_episode_steps > 1:
+        assert mixed_steps > 0, "no step had some sub-envs resetting and others not"
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_non_finite_and_out_of_range_actions_raise(env_id: str) -> None:
+    env = gym.make(env_id)
+    env.reset(seed=0)
+    shape = env.action_space.shape
+    for bad in (np.nan, np.inf, -np.inf, 1.5):
+        action = np.zeros(shape, dtype=np.float32)
+        action[0] = bad
+        with pytest.raises(ValueError, match="action"):
+            env.step(action)
+    vec = gym.make_vec(env_id, num_envs=3, vectorization_mode="vector_entry_point")
+    vec.reset(seed=0)
+    actions = np.zeros((3, *shape), dtype=np.float32)
+    actions[1, 0] = np.nan
+    with pytest.raises(ValueError, match="NaN"):
+        vec.step(actions)
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_unknown_keyword_raises_type_error(env_id: str) -> None:
+    with pytest.raises(TypeError):
+        gym.make(env_id, no_such_parameter=1.0)
+    with pytest.raises(TypeError):
+        gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point", no_such_parameter=1.0)
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_every_parameter_is_a_keyword_that_lands_in_the_spec_and_is_range_checked(env_id: str) -> None:
+    params_cls = gym.make(env_id).unwrapped.task.params_cls
+    for f in dataclasses.fields(params_cls):
+        env = gym.make(env_id, **{f.name: f.default})
+        assert env.spec.kwargs[f.name] == f.default
+        low = f.metadata.get("low", -math.inf)
+        if low > -math.inf:
+            bad = low - 1 if isinstance(f.default, int) and not isinstance(f.default, bool) else low - 1.0
+            with pytest.raises(ValueError, match=f.name):
+                gym.make(env_id, **{f.name: bad})
+        if isinstance(f.default, float):
+            with pytest.raises(ValueError, match=f.name):
+                gym.make(env_id, **{f.name: float("nan")})
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_rgb_array_frames_are_uint8_images_at_the_control_rate(env_id: str) -> None:
+    env = gym.make(env_id, render_mode="rgb_array")
+    assert env.metadata["render_fps"] == env.unwrapped.task.control_rate
+    env.reset(seed=0)
+    frames = [env.render()]
+    for action in random_actions(env_id, 3, seed=6):
+        _, _, terminated, truncated, _ = env.step(action)
+        frames.append(env.render())
+        if terminated or truncated:
+            break
+    for frame in frames:
+        assert frame.dtype == np.uint8 and frame.ndim == 3 and frame.shape[2] == 3
+        assert frame.min() < frame.max()
+    assert pickle.loads(pickle.dumps(env)) is not None
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_info_carries_reward_terms_that_sum_to_the_reward(env_id: str) -> None:
+    env = gym.make(env_id)
+    env.reset(seed=0)
+    for action in random_actions(env_id, 20, seed=7):
+        _, reward, terminated, truncated, info = env.step(action)
+        assert "is_success" in info and isinstance(info["is_success"], bool)
+        assert math.isclose(sum(info["reward_terms"].values()), reward, rel_tol=1e-9, abs_tol=1e-12)
+        if terminated or truncated:
+            env.reset()

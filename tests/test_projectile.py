@@ -1,0 +1,70 @@
+"""Projectile-v0: the firing solution hits, the envelope is reachable, info is the physics."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import vegym  # noqa: F401
+from agents.analytic import controller_for
+from vegym.envs.projectile import ProjectileEnvParams
+from vegym.physics import projectile
+
+ENV_ID = "vegym/Projectile-v0"
+
+
+def shoot(env: gym.vector.VectorEnv, policy) -> tuple[np.ndarray, np.ndarray]:
+    obs, _ = env.reset(seed=0)
+    _, reward, terminated, _, info = env.step(policy(obs))
+    assert terminated.all()
+    return reward, info["is_success"]
+
+
+def test_firing_solution_hits_at_least_99_percent_with_wind() -> None:
+    env = gym.make_vec(ENV_ID, num_envs=300, vectorization_mode="vector_entry_point")
+    controller = controller_for(env)
+    reward, hit = shoot(env, lambda o: controller.predict(o)[0])
+    assert hit.mean() >= 0.99
+    env.action_space.seed(0)
+    random_reward, random_hit = shoot(env, lambda o: env.action_space.sample())
+    assert reward.mean() > random_reward.mean() + 1.0 and random_hit.mean() < 0.2
+
+
+def test_every_sampled_target_is_reachable_at_full_speed() -> None:
+    env = gym.make_vec(ENV_ID, num_envs=2000, vectorization_mode="vector_entry_point")
+    env.reset(seed=1)
+    state, p = env.unwrapped.state, env.unwrapped.params
+    delta = state["target"] - state["launch_position"]
+    delta[:, 1] += p.radius
+    _, _, _, reachable = projectile.firing_solution(delta, state["wind"], p.speed_max, p.physics)
+    assert reachable.all()
+    assert np.hypot(delta[:, 0], delta[:, 2]).max() <= p.target_distance_max
+
+
+def test_info_is_the_exact_shot_in_si_units() -> None:
+    env = gym.make(ENV_ID)
+    env.reset(seed=5)
+    _, reward, terminated, _, info = env.step(np.array([0.3, 0.1, 0.5], dtype=np.float32))
+    assert terminated
+    p = env.unwrapped.params
+    speed = np.linalg.norm(info["launch_velocity"])
+    assert speed == pytest.approx(p.speed_min + 0.75 * (p.speed_max - p.speed_min), rel=1e-6)
+    assert np.arcsin(info["launch_velocity"][1] / speed) == pytest.approx(0.3 * np.pi / 2, rel=1e-6)
+    point, t = projectile.impact_point(
+        info["launch_position"][None], info["launch_velocity"][None], info["wind"][None], p.physics
+    )
+    np.testing.assert_allclose(info["landing_point"], point[0], atol=1e-12)
+    assert info["flight_time"] == pytest.approx(t[0], rel=1e-12)
+    miss = np.hypot(*(info["landing_point"] - info["target"])[[0, 2]])
+    assert info["miss_distance"] == pytest.approx(miss, rel=1e-12)
+    assert reward == pytest.approx(-miss / p.target_distance_max + (p.hit_bonus if miss <= p.hit_radius else 0.0))
+    assert info["wind"][1] == 0.0 and info["gravity"] == 9.81
+
+
+def test_targets_beyond_the_reachable_envelope_are_rejected() -> None:
+    with pytest.raises(ValueError, match="target_distance_max"):
+        ProjectileEnvParams(target_distance_max=100.0)
+    with pytest.raises(ValueError, match="wind_speed_max"):
+        ProjectileEnvParams(wind_speed_max=40.0)
+    assert ProjectileEnvParams().reachable_distance >= 60.0
