@@ -196,3 +196,33 @@ def test_info_carries_reward_terms_that_sum_to_the_reward(env_id: str) -> None:
         assert math.isclose(sum(info["reward_terms"].values()), reward, rel_tol=1e-9, abs_tol=1e-12)
         if terminated or truncated:
             env.reset()
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_only_human_mode_initialises_a_display(env_id: str) -> None:
+    import pygame
+
+    pygame.display.quit()
+    env = gym.make(env_id, render_mode="rgb_array")
+    env.reset(seed=0)
+    env.render()
+    assert not pygame.display.get_init()
+    human = gym.make(env_id, render_mode="human")
+    human.reset(seed=0)
+    assert pygame.display.get_init()
+    human.close()
+    assert not pygame.display.get_init()
+
+
+def test_registration_works_in_spawned_subprocess_workers() -> None:
+    from stable_baselines3.common.env_util import make_vec_env
+    from stable_baselines3.common.vec_env import SubprocVecEnv
+
+    env_id = f"vegym:{ENV_IDS[0]}"
+    vec = make_vec_env(env_id, n_envs=2, seed=0, vec_env_cls=SubprocVecEnv, vec_env_kwargs={"start_method": "spawn"})
+    try:
+        obs = vec.reset()
+        assert obs.shape == (2, *gym.spec(ENV_IDS[0]).make().observation_space.shape)
+        vec.step(np.zeros((2, *vec.action_space.shape), dtype=np.float32))
+    finally:
+        vec.close()

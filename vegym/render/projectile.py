@@ -53,7 +53,8 @@ class ProjectileRenderer:
         wind_arrow = np.array([w_along, w_across]) * reach / 40.0
         top.arrow((reach * 0.8, 0.0), wind_arrow, canvas.GREEN)
         lines = [
-            f"target {distance:.1f} m   launch height {p0[1]:.1f} m   wind {w_along:+.1f} along, {w_across:+.1f} across m/s"
+            f"target {distance:.1f} m   launch height {p0[1]:.1f} m   "
+            f"wind {w_along:+.1f} along, {w_across:+.1f} across m/s"
         ]
         if self.shot:
             v0, w = self.shot["launch_velocity"], self.shot["wind"]
