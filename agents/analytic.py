@@ -18,6 +18,7 @@ import numpy as np
 from vegym.envs.base import Task
 from vegym.envs.bouncing_ball import BouncingBallParams, BouncingBallTask, optimal_apexes
 from vegym.envs.projectile import AZIMUTH_LIMIT, ELEVATION_LIMIT, ProjectileEnvParams, ProjectileTask
+from vegym.envs.steerable_wheel import SteerableWheelParams, SteerableWheelTask
 from vegym.physics import projectile
 
 
@@ -114,9 +115,40 @@ class ProjectileFiringSolution(AnalyticController):
         return np.stack([elevation / ELEVATION_LIMIT, azimuth / AZIMUTH_LIMIT, np.ones(n)], axis=-1)
 
 
+class SteerableWheelPurePursuit(AnalyticController):
+    """Pure pursuit toward the current waypoint (PHYSICS.md section 3), from the observation alone.
+
+    With the relative bearing eta (``obs[1:3]`` = sin, cos) and the distance D, the curvature of the arc through
+    a point ``L_d = clip(D, min_lookahead, max_lookahead)`` ahead along the bearing is ``kappa = 2 sin(eta) / L_d``;
+    a waypoint behind (``cos eta < 0``) gets the full ``2 sign(eta) / L_d``. Capping L_d turns the wheel onto the
+    bearing early instead of along one wide arc that can leave the arena. The speed command is the fastest at
+    which that curvature is within the yaw-rate limit, ``min(max_speed, max_yaw_rate / |kappa|)``, and the yaw
+    rate ``kappa v`` uses the speed the step will apply (the observed speed moved toward the command by at most
+    ``max_acceleration dt``), clipped to ``max_yaw_rate``.
+    """
+
+    def __init__(self, params: SteerableWheelParams, min_lookahead: float = 1.0, max_lookahead: float = 2.0) -> None:
+        self.params = params
+        self.min_lookahead = min_lookahead
+        self.max_lookahead = max_lookahead
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        p = self.params
+        distance, sin_eta, cos_eta = obs[:, 0] * p.diagonal, obs[:, 1], obs[:, 2]
+        lateral = np.where(cos_eta >= 0.0, sin_eta, np.where(sin_eta >= 0.0, 1.0, -1.0))
+        curvature = 2.0 * lateral / np.clip(distance, self.min_lookahead, self.max_lookahead)
+        command = p.max_speed / np.maximum(1.0, np.abs(curvature) * p.max_speed / p.max_yaw_rate)
+        current = obs[:, 6] * p.max_speed
+        dv = p.max_acceleration * p.dt
+        speed = np.clip(command, current - dv, current + dv)
+        yaw_rate = np.clip(curvature * speed, -p.max_yaw_rate, p.max_yaw_rate)
+        return np.stack([2.0 * command / p.max_speed - 1.0, yaw_rate / p.max_yaw_rate], axis=-1)
+
+
 CONTROLLERS: dict[type[Task], Callable[[Any], AnalyticController]] = {
     BouncingBallTask: BouncingBallMyopic,
     ProjectileTask: ProjectileFiringSolution,
+    SteerableWheelTask: SteerableWheelPurePursuit,
 }
 """Reference controller of each task, built from the task's parameters."""
 

@@ -24,6 +24,12 @@ ENVS: dict[str, dict[str, object]] = {
         "max_episode_steps": 1,
         "summary": "aim a launcher at a ground target in a constant wind (one shot)",
     },
+    "vegym/SteerableWheel-v0": {
+        "module": "vegym.envs.steerable_wheel",
+        "env": "SteerableWheelEnv",
+        "max_episode_steps": 400,
+        "summary": "steer a rolling wheel through random waypoints in order",
+    },
 }
 """Registered env ids: the module, the env class (its vector twin is ``<Name>VectorEnv`` minus ``Env``),
 the episode length and a one-line description."""
