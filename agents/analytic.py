@@ -15,11 +15,12 @@ from typing import Any
 
 import numpy as np
 
+from vegym.envs.aircraft import AircraftEnvParams, AircraftTask
 from vegym.envs.base import Task
 from vegym.envs.bouncing_ball import BouncingBallParams, BouncingBallTask, optimal_apexes
 from vegym.envs.projectile import AZIMUTH_LIMIT, ELEVATION_LIMIT, ProjectileEnvParams, ProjectileTask
 from vegym.envs.steerable_wheel import SteerableWheelParams, SteerableWheelTask
-from vegym.physics import projectile
+from vegym.physics import aircraft, projectile
 
 
 class AnalyticController(abc.ABC):
@@ -145,9 +146,32 @@ class SteerableWheelPurePursuit(AnalyticController):
         return np.stack([2.0 * command / p.max_speed - 1.0, yaw_rate / p.max_yaw_rate], axis=-1)
 
 
+class AircraftAutopilot(AnalyticController):
+    """The chapter's autopilot (PHYSICS.md section 10), from the observation: three decoupled saturated P loops.
+
+    The errors are rebuilt from the observation: altitude and airspeed errors times their scales (exact inside
+    them, which covers the unsaturated bands ``V / k_v`` and ``A / k_a`` at the default scales) and the heading
+    error ``atan2(sin, cos)``; the commands of :func:`vegym.physics.aircraft.autopilot` are then mapped back onto
+    the action box.
+    """
+
+    def __init__(self, params: AircraftEnvParams, gains: aircraft.AutopilotGains | None = None) -> None:
+        self.params = params
+        self.physics = params.physics
+        self.gains = gains if gains is not None else aircraft.AutopilotGains()
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        p = self.params
+        errors = np.stack(
+            [obs[:, 0] * p.altitude_scale, obs[:, 1] * p.speed_scale, np.arctan2(obs[:, 2], obs[:, 3])], axis=-1
+        )
+        return aircraft.action_from_command(aircraft.autopilot(errors, self.physics, self.gains), self.physics)
+
+
 CONTROLLERS: dict[type[Task], Callable[[Any], AnalyticController]] = {
     BouncingBallTask: BouncingBallMyopic,
     ProjectileTask: ProjectileFiringSolution,
+    AircraftTask: AircraftAutopilot,
     SteerableWheelTask: SteerableWheelPurePursuit,
 }
 """Reference controller of each task, built from the task's parameters."""

@@ -30,9 +30,22 @@ ENVS: dict[str, dict[str, object]] = {
         "max_episode_steps": 400,
         "summary": "steer a rolling wheel through random waypoints in order",
     },
+    "vegym/Aircraft-v0": {
+        "module": "vegym.envs.aircraft",
+        "env": "AircraftEnv",
+        "max_episode_steps": 300,
+        "summary": "fly changing altitude, airspeed and heading demands (first-order aircraft)",
+    },
+    "vegym/AircraftGusty-v0": {
+        "module": "vegym.envs.aircraft",
+        "env": "AircraftEnv",
+        "max_episode_steps": 300,
+        "kwargs": {"draft_max": 4.0, "gust_amplitude": 2.0},
+        "summary": "Aircraft-v0 in a steady updraft or downdraft with gusts",
+    },
 }
 """Registered env ids: the module, the env class (its vector twin is ``<Name>VectorEnv`` minus ``Env``),
-the episode length and a one-line description."""
+the episode length, optional default keyword arguments (``kwargs``) and a one-line description."""
 
 
 def _register_all() -> None:
@@ -45,6 +58,7 @@ def _register_all() -> None:
             entry_point=f"{spec['module']}:{name}",
             vector_entry_point=f"{spec['module']}:{name.removesuffix('Env')}VectorEnv",
             max_episode_steps=int(spec["max_episode_steps"]),  # type: ignore[call-overload]
+            kwargs=dict(spec.get("kwargs", {})),  # type: ignore[call-overload]
         )
 
 

@@ -1,0 +1,241 @@
+"""Aircraft-v0 and AircraftGusty-v0: the autopilot's scores, the gusty steady error, the demand schedule, info."""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import vegym  # noqa: F401
+from agents.analytic import controller_for
+from vegym import rng
+from vegym.envs.aircraft import AircraftEnvParams, AircraftTask
+from vegym.physics import aircraft
+
+ENV_ID, GUSTY_ID = "vegym/Aircraft-v0", "vegym/AircraftGusty-v0"
+EPISODES = 500
+
+
+def fly(env_id: str, policy, episodes: int = EPISODES, seed: int = 0) -> dict[str, np.ndarray]:
+    """One full episode of every sub-env of a vector env: returns, final success, altitude errors per step."""
+    env = gym.make_vec(env_id, num_envs=episodes, vectorization_mode="vector_entry_point")
+    obs, _ = env.reset(seed=seed)
+    total, altitude_errors = np.zeros(episodes), []
+    truncated = np.zeros(episodes, dtype=bool)
+    while not truncated.any():
+        obs, reward, terminated, truncated, info = env.step(policy(obs))
+        assert not terminated.any()
+        total += reward
+        altitude_errors.append(info["errors"][:, 0])
+    assert truncated.all() and len(altitude_errors) == env.unwrapped.params.episode_steps
+    return {
+        "return": total,
+        "success": info["is_success"],
+        "altitude_error": np.array(altitude_errors),
+        "draft": env.unwrapped.state["draft"],
+        "env": env,
+    }
+
+
+def autopilot(env_id: str):
+    controller = controller_for(gym.make(env_id))
+    return lambda obs: controller.predict(obs)[0]
+
+
+def random_policy(seed: int = 0):
+    rng = np.random.default_rng(seed)
+    return lambda obs: rng.uniform(-1.0, 1.0, (len(obs), 3)).astype(np.float32)
+
+
+def test_autopilot_succeeds_on_at_least_90_percent_and_beats_random_by_far() -> None:
+    pilot, chance = fly(ENV_ID, autopilot(ENV_ID)), fly(ENV_ID, random_policy())
+    print(
+        f"\nAircraft-v0 over {EPISODES} episodes: autopilot success {pilot['success'].mean():.1%}, "
+        f"return {pilot['return'].mean():.1f}; random success {chance['success'].mean():.1%}, "
+        f"return {chance['return'].mean():.1f}"
+    )
+    assert pilot["success"].mean() >= 0.9
+    assert chance["success"].mean() < 0.05
+    assert pilot["return"].mean() > 3.0 * chance["return"].mean()  # returns are negative: 3x less error
+
+
+def test_gusty_autopilot_keeps_a_steady_altitude_error_that_the_observation_lets_an_agent_remove() -> None:
+    pilot = fly(GUSTY_ID, autopilot(GUSTY_ID))
+    steady = np.abs(pilot["altitude_error"][-30:]).mean()
+    expected = np.abs(pilot["draft"]).mean() / aircraft.AutopilotGains().climb_gain
+    p: AircraftEnvParams = pilot["env"].unwrapped.params
+    controller = controller_for(pilot["env"])
+
+    def compensated(obs: np.ndarray) -> np.ndarray:
+        """The autopilot minus the inferred vertical air velocity: observed vertical speed - own climb command."""
+        action = controller.act(obs.astype(np.float64))
+        air = (obs[:, 5] - obs[:, 6]) * p.vertical_speed_scale
+        climb = np.clip(0.2 * obs[:, 0] * p.altitude_scale - air, -p.max_descent_rate, p.max_climb_rate)
+        action[:, 1] = np.where(climb >= 0.0, climb / p.max_climb_rate, climb / p.max_descent_rate)
+        return action.astype(np.float32)
+
+    agent = fly(GUSTY_ID, compensated)
+    agent_steady = np.abs(agent["altitude_error"][-30:]).mean()
+    print(
+        f"\nAircraftGusty-v0 over {EPISODES} episodes: autopilot steady altitude error (mean |y_d - y|, last 30 s) "
+        f"{steady:.2f} m (|w| / k_v = {expected:.2f} m), success {pilot['success'].mean():.1%}; "
+        f"draft-compensating policy {agent_steady:.2f} m, success {agent['success'].mean():.1%}"
+    )
+    assert steady == pytest.approx(expected, rel=0.05)
+    assert 8.0 < steady < 12.0  # the documented 10.0 m
+    assert agent_steady < steady / 3.0 and agent["success"].mean() > pilot["success"].mean() + 0.1
+
+
+def test_controller_from_the_observation_is_the_physics_autopilot_on_the_true_state() -> None:
+    env = gym.make_vec(ENV_ID, num_envs=64, vectorization_mode="vector_entry_point")
+    controller = controller_for(env)
+    task: AircraftTask = env.unwrapped.task
+    obs, _ = env.reset(seed=4)
+    for _ in range(120):
+        state = env.unwrapped.state
+        errors = aircraft.tracking_errors(task.aircraft_state(state), state["demand"])
+        exact = aircraft.action_from_command(
+            aircraft.autopilot(errors, task.physics, aircraft.AutopilotGains()), task.physics
+        )
+        action = controller.predict(obs)[0]
+        np.testing.assert_allclose(action, exact, atol=1e-5)
+        obs, *_ = env.step(action)
+
+
+def test_task_on_any_subset_of_a_batch_gives_exactly_those_rows() -> None:
+    """What mixed resets rely on: a sub-batch (the sub-envs not resetting) steps exactly as in the full batch."""
+    params = AircraftEnvParams(draft_max=4.0, gust_amplitude=2.0, change_interval_min=3.0, change_interval_max=6.0)
+    task = AircraftTask(params)
+    n, random = 64, np.random.default_rng(8)
+    keys = rng.seed_keys(np.arange(n))
+    state = {**task.initial_state(keys), "key": keys, "step": np.zeros(n, dtype=np.int64)}
+    for _ in range(60):
+        action = random.uniform(-1.0, 1.0, (n, 3))
+        subset = random.random(n) < 0.5
+        full = task.step(state, action)
+        part = task.step({k: v[subset] for k, v in state.items()}, action[subset])
+        for k, v in part.state.items():
+            assert np.array_equal(v, full.state[k][subset]), k
+        assert np.array_equal(part.reward, full.reward[subset])
+        assert np.array_equal(task.observe(part.state), task.observe(full.state)[subset])
+        for k in ("position", "vertical_speed", "demand", "errors", "is_success"):
+            assert np.array_equal(part.info[k], full.info[k][subset]), k
+        state = {**full.state, "key": keys, "step": state["step"] + 1}
+    assert np.all(state["changes"] >= 5)
+
+
+def test_demands_change_at_random_times_from_the_seed_alone_and_never_near_the_end() -> None:
+    p = AircraftEnvParams()
+    schedules = []
+    for policy in (random_policy(1), random_policy(2)):
+        env = gym.make_vec(ENV_ID, num_envs=200, vectorization_mode="vector_entry_point")
+        obs, _ = env.reset(seed=9)
+        demands, since = [env.unwrapped.state["demand"]], [obs[:, 7]]
+        for _ in range(p.episode_steps):
+            obs, *_ = env.step(policy(obs))
+            demands.append(env.unwrapped.state["demand"])
+            since.append(obs[:, 7])
+        schedules.append((np.array(demands), np.array(since)))
+    (demands, since), (other, _) = schedules
+    assert np.array_equal(demands, other)
+    changed = np.any(demands[1:] != demands[:-1], axis=-1)
+    steps, envs = np.nonzero(changed)
+    steps = steps + 1
+    assert steps.max() <= p.episode_steps - p.final_hold / p.dt
+    assert np.all(since[steps, envs] == 0.0)
+    for i in range(200):
+        at = np.concatenate([[0], steps[envs == i]])
+        assert (
+            len(at) >= 2
+            and np.all(np.diff(at) >= p.change_interval_min)
+            and np.all(np.diff(at) <= p.change_interval_max)
+        )
+    low = np.array([p.altitude_min, p.speed_demand_min, -math.pi])
+    high = np.array([p.altitude_max, p.speed_demand_max, math.pi])
+    assert np.all((demands >= low) & (demands < high))
+
+
+def test_info_is_the_step_just_taken_in_si_units() -> None:
+    env = gym.make(GUSTY_ID)
+    env.reset(seed=2)
+    before = dict(env.unwrapped.state)
+    _, reward, _, _, info = env.step(np.array([0.5, -1.0, 1.0], dtype=np.float32))
+    assert set(info) == {
+        "position",
+        "speed",
+        "heading",
+        "vertical_speed",
+        "dt",
+        "demand",
+        "errors",
+        "reward_terms",
+        "is_success",
+    }
+    assert set(info["reward_terms"]) == {"altitude", "speed", "heading", "effort"}
+    p = env.unwrapped.params
+    assert info["dt"] == p.dt == 1.0
+    assert info["speed"] == pytest.approx(before["speed"][0] + 0.5 * p.max_acceleration)
+    assert info["heading"] == pytest.approx(aircraft.wrap(before["heading"][0] + p.max_turn_rate))
+    gust = info["vertical_speed"] + p.max_descent_rate - before["draft"][0]
+    assert abs(gust) <= p.gust_amplitude and gust != 0.0
+    assert info["position"][1] == pytest.approx(before["position"][0, 1] + info["vertical_speed"] * p.dt)
+    np.testing.assert_array_equal(info["demand"], before["demand"][0])
+    np.testing.assert_allclose(
+        info["errors"],
+        [
+            info["demand"][0] - info["position"][1],
+            info["demand"][1] - info["speed"],
+            aircraft.wrap(info["demand"][2] - info["heading"]),
+        ],
+    )
+    assert info["is_success"] == bool(
+        np.all(np.abs(info["errors"]) <= [p.altitude_tolerance, p.speed_tolerance, p.heading_tolerance])
+    )
+    assert info["reward_terms"]["effort"] == pytest.approx(-p.effort_weight * (0.25 + 1.0 + 1.0) / 3.0)
+    assert reward == pytest.approx(sum(info["reward_terms"].values()))
+
+
+def test_extreme_actions_keep_the_aircraft_in_its_envelope_and_observations_in_bounds() -> None:
+    env = gym.make_vec(
+        GUSTY_ID, num_envs=8, vectorization_mode="vector_entry_point", ceiling_altitude=2000.0, max_episode_steps=600
+    )
+    p = env.unwrapped.params
+    obs, _ = env.reset(seed=0)
+    for sign, steps in ((1.0, 150), (-1.0, 450)):
+        for _ in range(steps):
+            obs, _, _, _, info = env.step(np.full((8, 3), sign, dtype=np.float32))
+            assert env.observation_space.contains(obs)
+        edge = p.ceiling_altitude if sign > 0 else p.floor_altitude
+        np.testing.assert_allclose(info["position"][:, 1], edge)
+        np.testing.assert_allclose(info["speed"], p.max_speed if sign > 0 else p.min_speed)
+        assert np.all(np.abs(obs[:, 0]) == 1.0)
+
+
+def test_gusty_is_aircraft_with_drafts_and_gusts_by_registration() -> None:
+    assert gym.spec(GUSTY_ID).kwargs == {"draft_max": 4.0, "gust_amplitude": 2.0}
+    assert gym.spec(ENV_ID).kwargs == {}
+    assert gym.spec(ENV_ID).max_episode_steps == AircraftEnvParams().episode_steps
+    calm = gym.make(GUSTY_ID, draft_max=0.0, gust_amplitude=0.0)
+    plain = gym.make(ENV_ID)
+    assert np.array_equal(calm.reset(seed=5)[0], plain.reset(seed=5)[0])
+    action = np.array([0.2, 0.7, -0.4], dtype=np.float32)
+    assert np.array_equal(calm.step(action)[0], plain.step(action)[0])
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "name"),
+    [
+        ({"speed_demand_max": 250.0}, "speed_demand_max"),
+        ({"altitude_min": -5.0}, "altitude_min"),
+        ({"ceiling_altitude": 1500.0}, "ceiling_altitude"),
+        ({"final_hold": 400.0}, "final_hold"),
+        ({"change_interval_min": 130.0}, "change_interval_min"),
+        ({"altitude_scale": 0.0}, "altitude_scale"),
+        ({"episode_steps": 0}, "episode_steps"),
+    ],
+)
+def test_bad_parameters_raise_value_error_naming_them(kwargs: dict, name: str) -> None:
+    with pytest.raises(ValueError, match=name):
+        gym.make(ENV_ID, **kwargs)

@@ -1,0 +1,341 @@
+"""Aircraft-v0 and AircraftGusty-v0: fly the altitude, airspeed and heading demands the chapter's autopilot flies."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from gymnasium import spaces
+
+from vegym import rng
+from vegym.envs.base import Task, Transition, VegymEnv, VegymVectorEnv
+from vegym.params import Params, invalid, param
+from vegym.physics import aircraft
+from vegym.physics.aircraft import STANDARD_RATE, AircraftParams, AircraftState
+
+_SETUP_STREAM = 1
+_DEMAND_STREAM = 2
+_INTERVAL_STREAM = 3
+_GUST_STREAM = 4
+_NO_CHANGE = np.iinfo(np.int64).max
+"""``next_change`` of an episode whose demand schedule has ended."""
+
+
+@dataclass(frozen=True)
+class AircraftEnvParams(Params):
+    """Parameters of Aircraft-v0 and AircraftGusty-v0 (SI units, radians; altitudes are y)."""
+
+    dt: float = param(1.0, "control step (s)", low=0.0, high=10.0, low_open=True)
+    max_acceleration: float = param(1.5, "A_acc, largest acceleration (m/s^2)", low=0.0, low_open=True)
+    max_deceleration: float = param(2.0, "A_dec, largest deceleration (m/s^2, a magnitude)", low=0.0, low_open=True)
+    max_climb_rate: float = param(15.0, "V_cli, largest climb rate (m/s)", low=0.0, low_open=True)
+    max_descent_rate: float = param(10.0, "V_des, largest descent rate (m/s, a magnitude)", low=0.0, low_open=True)
+    max_turn_rate: float = param(STANDARD_RATE, "M, largest turn rate (rad/s)", low=0.0, high=math.pi, low_open=True)
+    min_speed: float = param(60.0, "v_min, slowest airspeed of the airframe (m/s)", low=0.0, low_open=True)
+    max_speed: float = param(200.0, "v_max, fastest airspeed of the airframe (m/s)", low=0.0, low_open=True)
+    floor_altitude: float = param(0.0, "ground level (m); descents are cut there")
+    ceiling_altitude: float = param(6000.0, "service ceiling (m); climbs are cut there")
+    wind_x: float = param(0.0, "constant horizontal wind drift, x component (m/s); moves the track only")
+    wind_z: float = param(0.0, "constant horizontal wind drift, z component (m/s); moves the track only")
+    draft_max: float = param(0.0, "steady vertical wind of an episode uniform in +-draft_max (m/s)", low=0.0)
+    gust_amplitude: float = param(0.0, "vertical gust of each step uniform in +-gust_amplitude (m/s)", low=0.0)
+    altitude_min: float = param(1000.0, "lowest demanded and starting altitude (m)")
+    altitude_max: float = param(1600.0, "highest demanded and starting altitude (m)")
+    speed_demand_min: float = param(90.0, "slowest demanded and starting airspeed (m/s)", low=0.0, low_open=True)
+    speed_demand_max: float = param(150.0, "fastest demanded and starting airspeed (m/s)", low=0.0, low_open=True)
+    change_interval_min: float = param(45.0, "shortest time between demand changes (s)", low=0.0, low_open=True)
+    change_interval_max: float = param(120.0, "longest time between demand changes (s)", low=0.0, low_open=True)
+    final_hold: float = param(90.0, "no demand change within this time of the planned episode end (s)", low=0.0)
+    episode_steps: int = param(300, "planned episode length (steps): the registered max_episode_steps", low=1)
+    altitude_scale: float = param(
+        300.0, "altitude error of a full unit of observation and reward (m)", low=0.0, low_open=True
+    )
+    speed_scale: float = param(
+        30.0, "airspeed error of a full unit of observation and reward (m/s)", low=0.0, low_open=True
+    )
+    altitude_tolerance: float = param(15.0, "is_success: largest altitude error (m)", low=0.0)
+    speed_tolerance: float = param(2.0, "is_success: largest airspeed error (m/s)", low=0.0)
+    heading_tolerance: float = param(math.radians(2.0), "is_success: largest heading error (rad)", low=0.0)
+    effort_weight: float = param(0.02, "weight of the mean squared normalised action in the reward", low=0.0)
+
+    def validate(self) -> None:
+        if not self.floor_altitude <= self.altitude_min <= self.altitude_max:
+            raise invalid(
+                "altitude_min",
+                self.altitude_min,
+                f"[floor_altitude={self.floor_altitude}, altitude_max={self.altitude_max}]",
+            )
+        if self.altitude_max >= self.ceiling_altitude:
+            raise invalid("ceiling_altitude", self.ceiling_altitude, f"(altitude_max={self.altitude_max}, inf)")
+        if not self.min_speed <= self.speed_demand_min <= self.speed_demand_max:
+            raise invalid(
+                "speed_demand_min",
+                self.speed_demand_min,
+                f"[min_speed={self.min_speed}, speed_demand_max={self.speed_demand_max}]",
+            )
+        if self.speed_demand_max > self.max_speed:
+            raise invalid("speed_demand_max", self.speed_demand_max, f"[speed_demand_min, max_speed={self.max_speed}]")
+        if not self.dt <= self.change_interval_min <= self.change_interval_max:
+            raise invalid(
+                "change_interval_min",
+                self.change_interval_min,
+                f"[dt={self.dt}, change_interval_max={self.change_interval_max}]",
+            )
+        if self.final_hold > self.episode_steps * self.dt:
+            raise invalid("final_hold", self.final_hold, f"[0, episode_steps * dt={self.episode_steps * self.dt}]")
+
+    @property
+    def physics(self) -> AircraftParams:
+        """The aircraft physics parameters (the clean model, not the book-faithful variant)."""
+        return AircraftParams(
+            max_acceleration=self.max_acceleration,
+            max_deceleration=self.max_deceleration,
+            max_climb_rate=self.max_climb_rate,
+            max_descent_rate=self.max_descent_rate,
+            max_turn_rate=self.max_turn_rate,
+            min_speed=self.min_speed,
+            max_speed=self.max_speed,
+            floor_altitude=self.floor_altitude,
+            ceiling_altitude=self.ceiling_altitude,
+            wind_x=self.wind_x,
+            wind_z=self.wind_z,
+        )
+
+    @property
+    def vertical_speed_scale(self) -> float:
+        """Largest possible climb or descent rate, drafts and gusts included (m/s): the unit of the observed
+        vertical speeds."""
+        return max(self.max_climb_rate, self.max_descent_rate) + self.draft_max + self.gust_amplitude
+
+    @property
+    def last_change_step(self) -> int:
+        """Latest step at which the demand may change: ``episode_steps - final_hold / dt``."""
+        return self.episode_steps - int(math.ceil(self.final_hold / self.dt - 1e-9))
+
+
+class AircraftTask(Task[AircraftEnvParams]):
+    """Batched logic of Aircraft-v0 (see :class:`AircraftEnv`)."""
+
+    params_cls = AircraftEnvParams
+    renderer = "vegym.render.aircraft:AircraftRenderer"
+
+    def __init__(self, params: AircraftEnvParams) -> None:
+        super().__init__(params)
+        self.physics = params.physics
+        low = np.array([-1, -1, -1, -1, 0, -1, -1, 0], np.float32)
+        self.observation_space = spaces.Box(low, np.ones(8, np.float32), dtype=np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, (3,), np.float32)
+
+    @property
+    def control_rate(self) -> float:
+        return 1.0 / self.params.dt
+
+    def draw_demand(self, keys: np.ndarray, index: np.ndarray) -> np.ndarray:
+        """Demand number ``index`` (n,) of each episode: ``(altitude, airspeed, heading)`` (n, 3), uniform in the
+        demand ranges and in [-pi, pi)."""
+        p = self.params
+        u = rng.uniform(keys, _DEMAND_STREAM, 3, counter=index)
+        return np.stack(
+            [
+                p.altitude_min + (p.altitude_max - p.altitude_min) * u[:, 0],
+                p.speed_demand_min + (p.speed_demand_max - p.speed_demand_min) * u[:, 1],
+                np.pi * (2.0 * u[:, 2] - 1.0),
+            ],
+            axis=-1,
+        )
+
+    def next_change(self, keys: np.ndarray, index: np.ndarray, now: np.ndarray) -> np.ndarray:
+        """Step of the change that ends demand number ``index`` (n,), set at step ``now``: an interval uniform in
+        ``[change_interval_min, change_interval_max]`` later, or ``_NO_CHANGE`` past ``last_change_step``."""
+        p = self.params
+        seconds = rng.uniform_in(keys, _INTERVAL_STREAM, p.change_interval_min, p.change_interval_max, counter=index)
+        at = now + np.maximum(np.round(seconds[:, 0] / p.dt).astype(np.int64), 1)
+        return np.where(at <= p.last_change_step, at, _NO_CHANGE)
+
+    def initial_state(self, keys: np.ndarray) -> dict[str, np.ndarray]:
+        p = self.params
+        n = len(keys)
+        u = rng.uniform(keys, _SETUP_STREAM, 4)
+        altitude = p.altitude_min + (p.altitude_max - p.altitude_min) * u[:, 0]
+        zeros = np.zeros(n, dtype=np.int64)
+        return {
+            "position": np.stack([np.zeros(n), altitude, np.zeros(n)], axis=-1),
+            "speed": p.speed_demand_min + (p.speed_demand_max - p.speed_demand_min) * u[:, 1],
+            "heading": np.pi * (2.0 * u[:, 2] - 1.0),
+            "command": np.zeros((n, 3)),
+            "vertical_speed": np.zeros(n),
+            "draft": p.draft_max * (2.0 * u[:, 3] - 1.0),
+            "demand": self.draw_demand(keys, zeros),
+            "changes": zeros,
+            "last_change": zeros,
+            "next_change": self.next_change(keys, zeros, zeros),
+        }
+
+    @staticmethod
+    def aircraft_state(state: dict[str, np.ndarray]) -> AircraftState:
+        """The physics state of a task state."""
+        return AircraftState(state["position"], state["speed"], state["heading"], state["command"])
+
+    def normalized_errors(self, errors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Altitude and airspeed errors (n,) over their scales, clipped to [-1, 1]."""
+        p = self.params
+        return (
+            np.clip(errors[:, 0] / p.altitude_scale, -1.0, 1.0),
+            np.clip(errors[:, 1] / p.speed_scale, -1.0, 1.0),
+        )
+
+    def step(self, state: dict[str, np.ndarray], action: np.ndarray) -> Transition:
+        p = self.params
+        keys = state["key"]
+        vertical_wind = state["draft"]
+        if p.gust_amplitude > 0.0:
+            vertical_wind = (
+                vertical_wind
+                + rng.uniform_in(keys, _GUST_STREAM, -p.gust_amplitude, p.gust_amplitude, counter=state["step"])[:, 0]
+            )
+        command = aircraft.command_from_action(action, self.physics)
+        plane, climb = aircraft.step(self.aircraft_state(state), command, p.dt, self.physics, vertical_wind)
+        demand = state["demand"]
+        errors = aircraft.tracking_errors(plane, demand)
+        altitude, speed = self.normalized_errors(errors)
+        effort = action[:, 0] * action[:, 0] + action[:, 1] * action[:, 1] + action[:, 2] * action[:, 2]
+        terms = {
+            "altitude": -np.abs(altitude) / 3.0,
+            "speed": -np.abs(speed) / 3.0,
+            "heading": -np.abs(errors[:, 2]) / (3.0 * np.pi),
+            "effort": -p.effort_weight / 3.0 * effort,
+        }
+        success = (
+            (np.abs(errors[:, 0]) <= p.altitude_tolerance)
+            & (np.abs(errors[:, 1]) <= p.speed_tolerance)
+            & (np.abs(errors[:, 2]) <= p.heading_tolerance)
+        )
+        now = state["step"] + 1
+        changing = now >= state["next_change"]
+        new_state = {
+            **state,
+            "position": plane.position,
+            "speed": plane.speed,
+            "heading": plane.heading,
+            "command": plane.command,
+            "vertical_speed": climb,
+        }
+        if changing.any():
+            index = state["changes"][changing] + 1
+            sub_keys, sub_now = keys[changing], now[changing]
+            new_demand, changes, last_change, next_change = (
+                demand.copy(),
+                state["changes"].copy(),
+                state["last_change"].copy(),
+                state["next_change"].copy(),
+            )
+            new_demand[changing] = self.draw_demand(sub_keys, index)
+            changes[changing] = index
+            last_change[changing] = sub_now
+            next_change[changing] = self.next_change(sub_keys, index, sub_now)
+            new_state.update(demand=new_demand, changes=changes, last_change=last_change, next_change=next_change)
+        info = {
+            "position": plane.position,
+            "speed": plane.speed,
+            "heading": plane.heading,
+            "vertical_speed": climb,
+            "dt": np.full(len(keys), p.dt),
+            "demand": demand,
+            "errors": errors,
+            "reward_terms": terms,
+            "is_success": success,
+        }
+        reward = terms["altitude"] + terms["speed"] + terms["heading"] + terms["effort"]
+        return Transition(new_state, reward, np.zeros(len(keys), dtype=bool), info)
+
+    def observe(self, state: dict[str, np.ndarray]) -> np.ndarray:
+        p = self.params
+        demand = state["demand"]
+        errors = np.stack([demand[:, 0] - state["position"][:, 1], demand[:, 1] - state["speed"]], axis=-1)
+        heading_error = demand[:, 2] - state["heading"]  # only its sine and cosine are observed: no wrap needed
+        obs = np.empty((len(demand), 8), dtype=np.float32)
+        obs[:, 0], obs[:, 1] = self.normalized_errors(errors)
+        obs[:, 2] = np.sin(heading_error)
+        obs[:, 3] = np.cos(heading_error)
+        obs[:, 4] = (state["speed"] - p.min_speed) / (p.max_speed - p.min_speed)
+        obs[:, 5] = np.clip(state["vertical_speed"] / p.vertical_speed_scale, -1.0, 1.0)
+        obs[:, 6] = state["command"][:, 1] / p.vertical_speed_scale
+        obs[:, 7] = np.minimum((state["step"] - state["last_change"]) * (p.dt / p.change_interval_max), 1.0)
+        return obs
+
+
+class AircraftEnv(VegymEnv[AircraftEnvParams]):
+    """Flying clearances: hold the altitude, airspeed and heading demanded, as the chapter's autopilot does.
+
+    ## Description
+    The first-order aircraft of the chapter (8.113-8.128) in the corrected form of PHYSICS.md section 10:
+    a point with horizontal airspeed v along its heading psi and a climb rate, driven by three commands, the
+    acceleration a, the climb rate v_y and the turn rate omega, held over each step of ``dt`` seconds (chord
+    update at the mid-heading, speed clipped to the airframe's ``[min_speed, max_speed]`` and the altitude to
+    ``[floor_altitude, ceiling_altitude]``). Like an air-traffic controller, the episode hands the aircraft a
+    demand (altitude, airspeed, heading) and changes it at random times, every ``change_interval_min`` to
+    ``change_interval_max`` seconds; the agent must fly each demand quickly and hold it.
+
+    ``vegym/AircraftGusty-v0`` is the same task in a steady vertical wind w of the episode (updraft or
+    downdraft, uniform in +-4 m/s) plus gusts (uniform in +-2 m/s, independent each step). The chapter's
+    proportional autopilot then settles with a steady altitude error ``|w| / k_v`` (k_v = 0.2 /s). Measured
+    as the mean ``|y_d - y|`` over the last 30 s of 500 episodes (seed 0, ``tests/test_aircraft.py``) it is
+    **10.1 m** (the drafts' mean ``|w| / k_v``: 10.0 m), and the autopilot ends within the altitude tolerance
+    on 75% of the episodes (100% on Aircraft-v0). That is the number to beat: a policy that subtracts the
+    draft it infers from the observation (vertical speed achieved minus its own climb command) gets 1.0 m and
+    100%.
+
+    ## Action Space
+    ``Box(-1, 1, (3,), float32)``: the commands ``(a, v_y, omega)``, each mapped asymmetrically onto its
+    saturation range ``[-A_dec, A_acc] x [-V_des, V_cli] x [-M, M]``: ``u >= 0`` gives ``u`` times the upper
+    limit, ``u < 0`` ``|u|`` times the lower one, so 0 holds speed, altitude and heading.
+
+    ## Observation Space
+    ``Box([-1, -1, -1, -1, 0, -1, -1, 0], 1, (8,), float32)``: altitude error ``(y_d - y) / altitude_scale``
+    and airspeed error ``(v_d - v) / speed_scale``, both clipped to [-1, 1]; ``sin`` and ``cos`` of the
+    heading error ``psi_d - psi``; airspeed ``(v - min_speed) / (max_speed - min_speed)``; the vertical speed
+    achieved in the last step (drafts and gusts included) and the climb rate commanded in it, both over
+    ``vertical_speed_scale = max(V_cli, V_des) + draft_max + gust_amplitude``; time since the last demand
+    change over ``change_interval_max``, capped at 1. The two errors are clipped, and so is the vertical speed
+    against round-off; the other entries lie in their bounds by construction. Errors are demand minus current value.
+
+    ## Rewards
+    Per step, the sum of ``-|altitude error| / (3 altitude_scale)`` and ``-|airspeed error| / (3 speed_scale)``
+    (each error clipped to its scale), ``-|heading error| / (3 pi)`` and the effort penalty
+    ``-effort_weight * mean(action^2)``: the terms ``altitude``, ``speed``, ``heading``, ``effort`` of
+    ``info["reward_terms"]``. The tracking part lies in [-1, 0].
+
+    ## Starting State
+    Position ``(0, y0, 0)`` with altitude, airspeed and heading uniform in ``[altitude_min, altitude_max]``,
+    ``[speed_demand_min, speed_demand_max]`` and [-pi, pi); the first demand is drawn from the same ranges.
+    The demand schedule (values and change times) comes from the episode seed alone, never from the actions.
+    It is planned for ``episode_steps`` steps (the registered ``max_episode_steps``, 300 steps of 1 s): no
+    change comes within ``final_hold`` (90 s) of that end, which leaves time to fly any demand (about 60 s
+    at most at the default limits), and if an episode runs longer the last demand simply holds.
+
+    ## Episode End
+    Never terminated; truncated after ``max_episode_steps`` (300). ``info["is_success"]`` at every step:
+    the aircraft is within ``altitude_tolerance`` (15 m), ``speed_tolerance`` (2 m/s) and
+    ``heading_tolerance`` (2 deg) of the demand it flew; at the last step that is the final demand.
+
+    ## Arguments
+    ``gymnasium.make("vegym/Aircraft-v0", render_mode=None, **params)`` with the fields of
+    :class:`AircraftEnvParams`. ``info`` per step (SI, radians, y up): ``position`` (x, y, z; y = altitude),
+    ``speed``, ``heading``, ``vertical_speed`` (climb rate applied this step, drafts and gusts included),
+    ``dt``, ``demand`` (altitude, speed, heading flown this step; the observation already shows a change
+    made at this step), ``errors`` (altitude, speed, heading: demand minus value, heading wrapped),
+    ``reward_terms``, ``is_success``. Reference controller: the chapter's autopilot, three decoupled
+    saturated P loops with gains 0.2, 0.5, 0.5 /s (``agents.analytic``).
+
+    ## Version History
+    * v0: initial version.
+    """
+
+    task_cls = AircraftTask
+
+
+class AircraftVectorEnv(VegymVectorEnv[AircraftEnvParams]):
+    """Native vector twin of :class:`AircraftEnv` (same task code, NEXT_STEP autoreset)."""
+
+    task_cls = AircraftTask

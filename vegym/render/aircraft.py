@@ -1,0 +1,140 @@
+"""Aircraft-v0: top-down track, and altitude, airspeed and heading strip charts with the demands and the numbers."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from vegym.envs.aircraft import AircraftEnvParams
+from vegym.render import canvas
+
+WIDTH, HEIGHT = 900, 520
+_MIN_SPAN = 4000.0
+"""Smallest side of the top view (m): about a standard-rate circle at 100 m/s."""
+
+
+class AircraftRenderer:
+    """Records the flight of a single env and draws the whole episode so far."""
+
+    def __init__(self, params: AircraftEnvParams) -> None:
+        self.params = params
+        self.times: list[float] = []
+        self.positions: list[np.ndarray] = []
+        self.speeds: list[float] = []
+        self.headings: list[float] = []
+        self.demands: list[np.ndarray] = []
+        self.state: dict[str, np.ndarray] = {}
+        self.last: dict[str, Any] = {}
+
+    def reset(self, state: dict[str, np.ndarray]) -> None:
+        self.state = {k: v[0] for k, v in state.items()}
+        self.times = [0.0]
+        self.positions = [self.state["position"].copy()]
+        self.speeds = [float(self.state["speed"])]
+        self.headings = [float(self.state["heading"])]
+        self.demands = [self.state["demand"].copy()]
+        self.last = {}
+
+    def record(self, state: dict[str, np.ndarray], info: dict[str, Any]) -> None:
+        self.state = {k: v[0] for k, v in state.items()}
+        self.times.append(self.times[-1] + info["dt"])
+        self.positions.append(np.asarray(info["position"]).copy())
+        self.speeds.append(info["speed"])
+        self.headings.append(info["heading"])
+        self.demands.append(np.asarray(info["demand"]).copy())
+        self.last = info
+
+    def draw(self) -> np.ndarray:
+        surface = canvas.new_surface(WIDTH, HEIGHT)
+        self._top_view(surface)
+        self._strips(surface)
+        self._numbers(surface)
+        return canvas.to_array(surface)
+
+    def _top_view(self, surface: Any) -> None:
+        track = np.array(self.positions)
+        # Seen from above (+y): screen right is -x, screen up is +z, so a positive (left) turn is anticlockwise.
+        plan = np.stack([-track[:, 0], track[:, 2]], axis=-1)
+        low, high = plan.min(axis=0), plan.max(axis=0)
+        centre, span = 0.5 * (low + high), max(float(np.max(high - low)) * 1.15, _MIN_SPAN)
+        world = (centre[0] - span / 2, centre[0] + span / 2, centre[1] - span / 2, centre[1] + span / 2)
+        panel = canvas.Panel(surface, (15, 85, 400, 400), world, equal_aspect=True)
+        panel.frame(canvas.LIGHT)
+        surface.set_clip(panel.rect)
+        panel.polyline(plan, canvas.BLUE, 2)
+        panel.dot(plan[0], 4, canvas.GREEN)
+        heading = float(self.state["heading"])
+        forward = np.array([-np.sin(heading), np.cos(heading)])
+        left = np.array([-forward[1], forward[0]])
+        size = span / 40
+        nose = plan[-1] + 1.6 * size * forward
+        wings = [plan[-1] - size * forward + size * left, plan[-1] - size * forward - size * left]
+        demand = float(self.state["demand"][2])
+        wanted = np.array([-np.sin(demand), np.cos(demand)])
+        panel.dashed(plan[-1], plan[-1] + 0.25 * span * wanted, canvas.ORANGE, dashes=6)
+        panel.polygon(np.array([nose, wings[0], wings[1]]), canvas.RED)
+        bar = 1000.0 if span < 12000.0 else 5000.0
+        x0, y0 = world[0] + 0.05 * span, world[2] + 0.05 * span
+        panel.line((x0, y0), (x0 + bar, y0), canvas.BLACK, 3)
+        label_x, label_y = panel.to_px(x0, y0)
+        canvas.text(surface, [f"{bar / 1000:.0f} km"], (label_x, label_y - 18), 16)
+        panel.arrow((world[1] - 0.07 * span, world[2] + 0.05 * span), (0.0, 0.08 * span), canvas.GREY)
+        canvas.text(surface, ["+z"], panel.to_px(world[1] - 0.1 * span, world[2] + 0.16 * span), 16, canvas.GREY)
+        surface.set_clip(None)
+        canvas.text(
+            surface,
+            ["top view (right: -x, up: +z); green: start, orange: demand"],
+            (19, 88),
+            16,
+            canvas.GREY,
+        )
+
+    def _strips(self, surface: Any) -> None:
+        p = self.params
+        t = np.array(self.times)
+        demands = np.array(self.demands)
+        horizon = max(p.episode_steps * p.dt, t[-1])
+        series = [
+            ("altitude (m)", np.array([q[1] for q in self.positions]), demands[:, 0], (p.altitude_min, p.altitude_max)),
+            ("airspeed (m/s)", np.array(self.speeds), demands[:, 1], (p.speed_demand_min, p.speed_demand_max)),
+            ("heading (deg)", np.degrees(self.headings), np.degrees(demands[:, 2]), (-180.0, 180.0)),
+        ]
+        for k, (label, value, demand, (lo, hi)) in enumerate(series):
+            if k < 2:
+                lo = min(lo, float(value.min()), float(demand.min()))
+                hi = max(hi, float(value.max()), float(demand.max()))
+            pad = 0.08 * (hi - lo) if k < 2 else 0.0
+            panel = canvas.Panel(surface, (490, 85 + 145 * k, 395, 120), (0.0, horizon, lo - pad, hi + pad))
+            panel.frame(canvas.LIGHT)
+            for segment in self._unwrapped_segments(t, demand, k == 2):
+                panel.polyline(segment, canvas.ORANGE, 2)
+            for segment in self._unwrapped_segments(t, value, k == 2):
+                panel.polyline(segment, canvas.BLUE, 2)
+            canvas.text(surface, [label], (494, 88 + 145 * k), 16, canvas.GREY)
+            canvas.text(surface, [f"{hi + pad:.0f}"], (448, 80 + 145 * k), 15, canvas.GREY)
+            canvas.text(surface, [f"{lo - pad:.0f}"], (448, 195 + 145 * k), 15, canvas.GREY)
+        canvas.text(
+            surface, [f"time (s), 0 to {horizon:.0f}; blue: flown, orange: demand"], (490, 500), 16, canvas.GREY
+        )
+
+    @staticmethod
+    def _unwrapped_segments(t: np.ndarray, value: np.ndarray, angular: bool) -> list[np.ndarray]:
+        """Polylines (k, 2) of ``value`` over ``t``, split where a heading in degrees wraps around."""
+        cuts = np.flatnonzero(np.abs(np.diff(value)) > 180.0) + 1 if angular else np.zeros(0, dtype=int)
+        points = np.stack([t, value], axis=-1)
+        return [s for s in np.split(points, cuts) if len(s) >= 2]
+
+    def _numbers(self, surface: Any) -> None:
+        s = self.state
+        demand = s["demand"]
+        lines = [
+            f"t = {self.times[-1]:.0f} s   altitude {s['position'][1]:.0f} m (demand {demand[0]:.0f})   "
+            f"airspeed {s['speed']:.1f} m/s (demand {demand[1]:.1f})",
+            f"heading {np.degrees(s['heading']):.1f} deg (demand {np.degrees(demand[2]):.1f})   "
+            f"vertical speed {s['vertical_speed']:+.1f} m/s   steady vertical wind {s['draft'] + 0.0:+.1f} m/s",
+        ]
+        if self.last:
+            verdict = "within tolerance" if self.last["is_success"] else "not within tolerance"
+            lines.append(f"reward {sum(self.last['reward_terms'].values()):+.3f}   {verdict} of the demand flown")
+        canvas.text(surface, lines, (12, 8), 20)
