@@ -311,8 +311,9 @@ class AircraftEnv(VegymEnv[AircraftEnvParams]):
     ``[speed_demand_min, speed_demand_max]`` and [-pi, pi); the first demand is drawn from the same ranges.
     The demand schedule (values and change times) comes from the episode seed alone, never from the actions.
     It is planned for ``episode_steps`` steps (the registered ``max_episode_steps``, 300 steps of 1 s): no
-    change comes within ``final_hold`` (90 s) of that end, which leaves time to fly any demand (about 60 s
-    at most at the default limits), and if an episode runs longer the last demand simply holds.
+    change comes within ``final_hold`` (90 s) of that end, which leaves time to fly any demand in still air
+    (about 60 s at most at the default limits; a long descent against a 4 m/s updraft can take 100 s). If an
+    episode runs longer, the last demand simply holds.
 
     ## Episode End
     Never terminated; truncated after ``max_episode_steps`` (300). ``info["is_success"]`` at every step:
