@@ -49,7 +49,9 @@ class Params:
     _hints: ClassVar[dict[type, dict[str, Any]]] = {}
 
     def __post_init__(self) -> None:
-        hints = Params._hints.setdefault(type(self), typing.get_type_hints(type(self)))
+        hints = Params._hints.get(type(self))
+        if hints is None:
+            hints = Params._hints[type(self)] = typing.get_type_hints(type(self))
         for f in dataclasses.fields(self):  # type: ignore[arg-type]
             value = getattr(self, f.name)
             kind = hints[f.name]

@@ -235,69 +235,79 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
     def reset(
         self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, Info]:
+        """Reset every sub-env, or with ``options={"reset_mask": mask}`` (bool, (num_envs,)) only the masked ones.
+
+        A masked reset without a seed starts each masked sub-env's next episode, exactly as autoreset (and the
+        single env's ``reset()``) would; with a seed, masked sub-env ``i`` gets ``seed + i`` (or ``seed[i]``).
+        """
+        mask = (options or {}).get("reset_mask")
+        if mask is not None:
+            return self._reset_masked(seed, mask)
         super().reset(seed=seed if isinstance(seed, int) else None)
         if seed is None:
             keys = self.np_random.integers(0, 2**64, size=self.num_envs, dtype=np.uint64)
-        elif isinstance(seed, int):
-            keys = rng.seed_keys(seed + np.arange(self.num_envs))
         else:
-            if len(seed) != self.num_envs:
-                raise ValueError(f"seed has {len(seed)} entries; expected num_envs={self.num_envs}")
-            keys = rng.seed_keys(np.asarray(seed))
+            keys = self._seed_keys(seed)
         self.state = self._fresh(keys)
         self._autoreset[:] = False
+        return self.task.observe(self.state), {}
+
+    def _seed_keys(self, seed: int | list[int]) -> np.ndarray:
+        if isinstance(seed, int):
+            return rng.seed_keys(seed + np.arange(self.num_envs))
+        if len(seed) != self.num_envs:
+            raise ValueError(f"seed has {len(seed)} entries; expected num_envs={self.num_envs}")
+        return rng.seed_keys(np.asarray(seed))
+
+    def _reset_masked(self, seed: int | list[int] | None, mask: Any) -> tuple[np.ndarray, Info]:
+        mask = np.asarray(mask)
+        if mask.dtype != np.bool_ or mask.shape != (self.num_envs,):
+            raise ValueError(f"reset_mask must be a bool array of shape ({self.num_envs},); got {mask!r}")
+        if self.state is None:
+            raise gym.error.ResetNeeded("Call reset() without reset_mask before a masked reset.")
+        keys = rng.next_key(self.state["key"][mask]) if seed is None else self._seed_keys(seed)[mask]
+        self.state = self._with_fresh_episodes(self.state, mask, keys)
+        self._autoreset[mask] = False
         return self.task.observe(self.state), {}
 
     def _fresh(self, keys: np.ndarray) -> State:
         return {**self.task.initial_state(keys), "key": keys, "step": np.zeros(len(keys), dtype=np.int64)}
 
+    def _with_fresh_episodes(self, state: State, mask: np.ndarray, keys: np.ndarray) -> State:
+        """``state`` with the masked sub-envs starting the episodes of ``keys``; arrays are copied, never
+        written in place, since earlier states and returned infos may share them."""
+        fresh = self._fresh(keys)
+        out = dict(state)
+        for k, v in fresh.items():
+            out[k] = state[k].copy()
+            out[k][mask] = v
+        return out
+
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, Info]:
+        """Step every sub-env; those that ended on the previous step start a new episode instead (NEXT_STEP).
+
+        The task steps the whole batch (its randomness is a pure function of each episode's key, so the
+        discarded rows of resetting sub-envs draw nothing that others see); resetting rows are then replaced
+        by fresh episodes and report reward 0, not terminated, not truncated, and masked-out infos.
+        """
         if self.state is None:
             raise gym.error.ResetNeeded("Call reset() before step().")
         a = check_actions(actions, self.single_action_space, (self.num_envs,))
+        transition = self.task.step(self.state, a)
+        state = {**transition.state, "key": self.state["key"], "step": self.state["step"] + 1}
+        reward, terminated = transition.reward, transition.terminated
         resetting = self._autoreset
-        if not resetting.any():
-            transition = self.task.step(self.state, a)
-            self.state = {**transition.state, "key": self.state["key"], "step": self.state["step"] + 1}
-            reward, terminated, info = transition.reward, transition.terminated, transition.info
-            info_mask = np.ones(self.num_envs, dtype=bool)
-        else:
-            reward, terminated, info = self._step_with_resets(a, resetting)
-            info_mask = ~resetting
+        if resetting.any():
+            state = self._with_fresh_episodes(state, resetting, rng.next_key(self.state["key"][resetting]))
+            reward = np.where(resetting, 0.0, reward)
+            terminated = terminated & ~resetting
+        self.state = state
         truncated = np.zeros(self.num_envs, dtype=bool)
         if self.max_episode_steps is not None:
-            truncated = (self.state["step"] >= self.max_episode_steps) & info_mask
+            truncated = (state["step"] >= self.max_episode_steps) & ~resetting
         self._autoreset = terminated | truncated
-        obs = self.task.observe(self.state)
-        return obs, reward.astype(np.float64), terminated, truncated, self._vector_info(info, info_mask)
-
-    def _step_with_resets(self, a: np.ndarray, resetting: np.ndarray) -> tuple[np.ndarray, np.ndarray, Info]:
-        assert self.state is not None
-        active = ~resetting
-        state = {k: v.copy() for k, v in self.state.items()}
-        fresh = self._fresh(rng.next_key(state["key"][resetting]))
-        for k, v in fresh.items():
-            state[k][resetting] = v
-        reward = np.zeros(self.num_envs)
-        terminated = np.zeros(self.num_envs, dtype=bool)
-        info: Info = {}
-        if active.any():
-            sub = {k: v[active] for k, v in self.state.items()}
-            transition = self.task.step(sub, a[active])
-            for k, v in transition.state.items():
-                state[k][active] = v
-            state["step"][active] += 1
-            reward[active] = transition.reward
-            terminated[active] = transition.terminated
-
-            def scatter(x: np.ndarray) -> np.ndarray:
-                full = np.zeros((self.num_envs, *x.shape[1:]), dtype=x.dtype)
-                full[active] = x
-                return full
-
-            info = tree_map(scatter, transition.info)
-        self.state = state
-        return reward, terminated, info
+        obs = self.task.observe(state)
+        return obs, reward.astype(np.float64), terminated, truncated, self._vector_info(transition.info, ~resetting)
 
     def _vector_info(self, info: Info, mask: np.ndarray) -> Info:
         out: Info = {}
