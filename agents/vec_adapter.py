@@ -1,0 +1,113 @@
+"""A stable-baselines3 ``VecEnv`` over a Gymnasium ``VectorEnv`` with NEXT_STEP autoreset.
+
+SB3 vector envs reset a finished sub-env within the same step: the step returns the new episode's first
+observation and puts the last one in ``infos[i]["terminal_observation"]``. A NEXT_STEP vector env instead
+returns the last observation and resets on the following step, stepping the other sub-envs too, so the adapter
+cannot wait for that step: after a step in which some sub-envs finished it resets just those, with
+``reset(options={"reset_mask": done})`` (Gymnasium's partial-reset convention, supported by vegym's native vector
+envs and by ``SyncVectorEnv``/``AsyncVectorEnv``). The result equals SB3's ``DummyVecEnv`` over the single envs
+on the same seeds: observations, rewards, dones and infos, ``TimeLimit.truncated`` included.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+from gymnasium.vector import AutoresetMode, VectorEnv
+from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvObs, VecEnvStepReturn
+
+
+def _item(value: Any) -> Any:
+    """One sub-env's entry of a vector info array, as the single env would report it."""
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, np.ndarray):
+        return value.copy()
+    return value
+
+
+def split_info(info: Mapping[str, Any], num_envs: int) -> list[dict[str, Any]]:
+    """Gymnasium's vector info (arrays with ``_key`` masks, nested dicts alike) as one dict per sub-env."""
+    out: list[dict[str, Any]] = [{} for _ in range(num_envs)]
+    for key, value in info.items():
+        if key.startswith("_"):
+            continue
+        mask = info.get(f"_{key}", np.ones(num_envs, dtype=bool))
+        parts = split_info(value, num_envs) if isinstance(value, Mapping) else None
+        for i in np.flatnonzero(mask):
+            out[i][key] = parts[i] if parts is not None else _item(value[i])
+    return out
+
+
+class VectorEnvAdapter(VecEnv):
+    """SB3 ``VecEnv`` semantics over a Gymnasium NEXT_STEP ``VectorEnv`` (see the module docstring).
+
+    The sub-envs of a native vector env share one batched task, so ``get_attr``/``set_attr`` read and write the
+    vector env's attribute for every index, and no sub-env is wrapped (``env_is_wrapped`` is all False).
+    """
+
+    def __init__(self, venv: VectorEnv) -> None:
+        mode = venv.metadata.get("autoreset_mode", AutoresetMode.NEXT_STEP)
+        if mode != AutoresetMode.NEXT_STEP:
+            raise ValueError(f"autoreset_mode={mode!r}: VectorEnvAdapter needs AutoresetMode.NEXT_STEP")
+        self.venv = venv
+        super().__init__(venv.num_envs, venv.single_observation_space, venv.single_action_space)
+        self._actions: np.ndarray | None = None
+
+    def reset(self) -> VecEnvObs:
+        seeds = None if all(s is None for s in self._seeds) else self._seeds
+        if seeds is not None and any(s is None for s in seeds):
+            raise ValueError(f"seeds {seeds!r}: seed either every sub-env or none")
+        options = self._options[0]
+        if any(o != options for o in self._options):
+            raise ValueError("a native vector env takes one options dict for all sub-envs")
+        obs, info = self.venv.reset(seed=seeds, options=dict(options) or None)
+        self.reset_infos = split_info(info, self.num_envs)
+        self._reset_seeds()
+        self._reset_options()
+        return np.array(obs)
+
+    def step_async(self, actions: np.ndarray) -> None:
+        self._actions = actions
+
+    def step_wait(self) -> VecEnvStepReturn:
+        if self._actions is None:
+            raise RuntimeError("step_wait() called before step_async()")
+        obs, rewards, terminated, truncated, info = self.venv.step(self._actions)
+        self._actions = None
+        obs = np.array(obs)
+        dones = np.asarray(terminated | truncated, dtype=bool)
+        infos = split_info(info, self.num_envs)
+        for i in range(self.num_envs):
+            infos[i]["TimeLimit.truncated"] = bool(truncated[i] and not terminated[i])
+        if dones.any():
+            reset_obs, reset_info = self.venv.reset(options={"reset_mask": dones.copy()})
+            reset_infos = split_info(reset_info, self.num_envs)
+            for i in np.flatnonzero(dones):
+                infos[i]["terminal_observation"] = obs[i].copy()
+                obs[i] = reset_obs[i]
+                self.reset_infos[i] = reset_infos[i]
+        return obs, np.asarray(rewards, dtype=np.float32), dones, infos
+
+    def close(self) -> None:
+        self.venv.close()
+
+    def _count(self, indices: VecEnvIndices) -> int:
+        return len(list(self._get_indices(indices)))
+
+    def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
+        return [getattr(self.venv, attr_name)] * self._count(indices)
+
+    def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
+        setattr(self.venv, attr_name, value)
+
+    def env_method(
+        self, method_name: str, *method_args: Any, indices: VecEnvIndices = None, **method_kwargs: Any
+    ) -> list[Any]:
+        result = getattr(self.venv, method_name)(*method_args, **method_kwargs)
+        return [result] * self._count(indices)
+
+    def env_is_wrapped(self, wrapper_class: type, indices: VecEnvIndices = None) -> list[bool]:
+        return [False] * self._count(indices)
