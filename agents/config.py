@@ -1,0 +1,446 @@
+"""Typed training configs, loaded from RL-Zoo-style YAML files: ``configs/<algo>.yml``, one entry per env id.
+
+An entry holds the pipeline keys (the fields of :class:`TrainConfig`: ``n_timesteps``, ``policy``, ``n_envs``,
+``normalize``, ``env_kwargs``, ``policy_kwargs``, ...) and, flat beside them, hyperparameters of the SB3
+algorithm, which must be arguments of its constructor. Values are checked against the field types and the
+constructor's annotations: numbers PyYAML leaves as strings (``3e-4``, ``1e6``) are converted, dicts may be
+written as RL-Zoo strings (``"dict(net_arch=[64, 64], activation_fn=nn.Tanh)"``, parsed with :mod:`ast`, never
+evaluated), schedules as ``lin_<start>`` (linear decay to 0). Anything else is a :class:`ConfigError` naming
+the key and the file.
+"""
+
+from __future__ import annotations
+
+import ast
+import dataclasses
+import inspect
+import math
+import types
+import typing
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import torch
+import yaml
+from stable_baselines3 import PPO, SAC, TD3
+from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.noise import ActionNoise, NormalActionNoise, OrnsteinUhlenbeckActionNoise
+from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
+from stable_baselines3.common.vec_env import VecNormalize
+
+import vegym
+from vegym.envs.base import load_object
+
+ALGOS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC, "td3": TD3}
+"""The algorithms a config may name (its file name)."""
+
+CONFIG_DIR = Path(__file__).resolve().parent.parent / "configs"
+"""The committed configs: ``<algo>.yml`` for each algorithm."""
+
+PIPELINE_ARGS = frozenset({"self", "policy", "env", "seed", "policy_kwargs", "tensorboard_log", "verbose"})
+"""Constructor arguments the pipeline sets itself (``policy``/``seed``/``policy_kwargs`` are config fields)."""
+
+NOISE_TYPES: dict[str, type[ActionNoise]] = {
+    "normal": NormalActionNoise,
+    "ornstein-uhlenbeck": OrnsteinUhlenbeckActionNoise,
+}
+"""Exploration noise of the off-policy algorithms (``noise_type``), RL-Zoo names."""
+
+NAMED_CLASSES = {"activation_fn": (torch.nn, torch.nn.Module), "optimizer_class": (torch.optim, torch.optim.Optimizer)}
+"""``policy_kwargs`` entries that name a torch class (``nn.Tanh``, ``optim.Adam``): its module and base class."""
+
+SCHEDULE_PREFIX = "lin_"
+
+
+@dataclass(frozen=True)
+class LinearDecay:
+    """The schedule ``lin_<start>``: ``start`` at the beginning of training, decaying linearly to 0 at the end."""
+
+    start: float
+
+    def __call__(self, progress_remaining: float) -> float:
+        return self.start * progress_remaining
+
+
+class ConfigError(ValueError):
+    """A config file or entry that cannot be used; the message names the file and the key."""
+
+
+@dataclass(frozen=True)
+class TrainConfig:
+    """One training run: an env, an SB3 algorithm and its settings (an entry of ``configs/<algo>.yml``)."""
+
+    env_id: str
+    """Registered env id, e.g. ``vegym/BouncingBall-v0``: the entry's key."""
+    algo: str
+    """``ppo``, ``sac`` or ``td3``: the config file's name."""
+    n_timesteps: int
+    """Total env steps of training, over all parallel envs."""
+    seed: int = 0
+    """Seed of the model and of the training envs (sub-env i starts from seed + i)."""
+    policy: str = "MlpPolicy"
+    """SB3 policy alias."""
+    n_envs: int = 1
+    """Parallel envs; above 1 the env's native vector env runs them in one batch."""
+    normalize: bool | dict[str, Any] = False
+    """VecNormalize: false, true (its defaults) or its keyword arguments (``norm_obs``, ``norm_reward``, ...)."""
+    env_kwargs: dict[str, Any] = field(default_factory=dict)
+    """Env parameters passed to ``gymnasium.make``; evaluation uses the same."""
+    policy_kwargs: dict[str, Any] = field(default_factory=dict)
+    """Policy constructor arguments (``net_arch``, ``activation_fn`` as a torch.nn name, ...)."""
+    noise_type: str | None = None
+    """Off-policy exploration noise added to actions: ``normal`` or ``ornstein-uhlenbeck`` (none if null)."""
+    noise_std: float = 0.1
+    """Standard deviation of that noise, in action units (actions span [-1, 1])."""
+    eval_freq: int = 10_000
+    """Env steps between evaluations during training."""
+    n_eval_episodes: int = 20
+    """Episodes per evaluation during training."""
+    save_freq: int = 50_000
+    """Env steps between checkpoints."""
+    hyperparams: dict[str, Any] = field(default_factory=dict)
+    """Further constructor arguments of the algorithm (``learning_rate``, ``batch_size``, ...), flat in YAML."""
+
+    @property
+    def algo_class(self) -> type[BaseAlgorithm]:
+        """The SB3 algorithm class."""
+        return ALGOS[self.algo]
+
+    def to_entry(self) -> dict[str, Any]:
+        """The flat YAML entry (RL-Zoo layout) that loads back into this config, with ``env_id`` and ``algo``."""
+        entry = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "hyperparams"}
+        return {**entry, **self.hyperparams}
+
+    def algo_kwargs(self, action_dim: int) -> dict[str, Any]:
+        """Constructor keyword arguments for :attr:`algo_class` (besides policy, env, seed): SB3 objects."""
+        kwargs: dict[str, Any] = {}
+        hints = constructor_hints(self.algo_class)
+        for key, value in self.hyperparams.items():
+            kwargs[key] = LinearDecay(schedule_start(value)) if _is_schedule(value, hints[key]) else value
+        policy_kwargs = {
+            k: resolve_class(v, *NAMED_CLASSES[k]) if k in NAMED_CLASSES else v for k, v in self.policy_kwargs.items()
+        }
+        if policy_kwargs:
+            kwargs["policy_kwargs"] = policy_kwargs
+        if self.noise_type is not None:
+            zeros = np.zeros(action_dim)
+            kwargs["action_noise"] = NOISE_TYPES[self.noise_type](zeros, self.noise_std * np.ones(action_dim))
+        return kwargs
+
+    def normalize_kwargs(self) -> dict[str, Any] | None:
+        """VecNormalize keyword arguments, or None without normalisation (gamma defaults to the algorithm's)."""
+        if self.normalize is False:
+            return None
+        kwargs = {} if self.normalize is True else dict(self.normalize)
+        if "gamma" in self.hyperparams:
+            kwargs.setdefault("gamma", self.hyperparams["gamma"])
+        return kwargs
+
+
+def env_name(env_id: str) -> str:
+    """``vegym/BouncingBall-v0`` -> ``BouncingBall-v0`` (the directory name of its models)."""
+    return env_id.split("/", 1)[-1]
+
+
+def resolve_env_id(name: str) -> str:
+    """The registered id for ``vegym/Name-v0`` or ``Name-v0``; ValueError listing the ids otherwise."""
+    for env_id in vegym.ENVS:
+        if name in (env_id, env_name(env_id)):
+            return env_id
+    raise ValueError(f"unknown env {name!r}; registered: {', '.join(vegym.ENVS)}")
+
+
+def constructor_hints(cls: type) -> dict[str, Any]:
+    """The annotations of ``cls.__init__``'s parameters (``inspect.Parameter.empty`` where there is none)."""
+    return {name: p.annotation for name, p in inspect.signature(cls.__init__).parameters.items()}
+
+
+def _describe(hint: Any) -> str:
+    if isinstance(hint, type):
+        return hint.__name__
+    return str(hint).replace("typing.", "")
+
+
+def schedule_start(value: str) -> float:
+    """The start value of a ``lin_<start>`` schedule string; ValueError if it is not one."""
+    if not value.startswith(SCHEDULE_PREFIX):
+        raise ValueError(f"{value!r} is not a schedule '{SCHEDULE_PREFIX}<start>'")
+    return float(value[len(SCHEDULE_PREFIX) :])
+
+
+def _is_schedule(value: Any, hint: Any) -> bool:
+    return isinstance(value, str) and any(_origin(h) is Callable for h in _members(hint))
+
+
+def _origin(hint: Any) -> Any:
+    origin = typing.get_origin(hint)
+    return Callable if origin is Callable or hint is Callable else origin
+
+
+def _members(hint: Any) -> tuple[Any, ...]:
+    if typing.get_origin(hint) in (typing.Union, types.UnionType):
+        return typing.get_args(hint)
+    return (hint,)
+
+
+def _number(value: Any) -> float | None:
+    """``value`` as a float if it is a number or a string holding one (not a bool), else None."""
+    if isinstance(value, bool):
+        return None
+    if isinstance(value, (int, float)):
+        return float(value)
+    if isinstance(value, str):
+        try:
+            return float(value)
+        except ValueError:
+            return None
+    return None
+
+
+def coerce(value: Any, hint: Any, where: str) -> Any:
+    """``value`` checked against the annotation ``hint`` and converted (numeric strings, lists to tuples)."""
+    if hint is inspect.Parameter.empty or hint is Any:
+        return value
+    origin = typing.get_origin(hint)
+    if origin in (typing.Union, types.UnionType):
+        members = typing.get_args(hint)
+        if value is None and type(None) in members:
+            return None
+        numeric_first = sorted(members, key=lambda m: m not in (int, float))
+        for member in numeric_first if isinstance(value, str) else members:
+            try:
+                return coerce(value, member, where)
+            except ConfigError:
+                continue
+        raise ConfigError(f"{where}: {value!r} is not {_describe(hint)}")
+    if hint is type(None):
+        if value is not None:
+            raise ConfigError(f"{where}: {value!r} is not null")
+        return None
+    if hint is bool:
+        if not isinstance(value, bool):
+            raise ConfigError(f"{where}: {value!r} is not a bool (true or false)")
+        return value
+    if hint is int:
+        number = _number(value)
+        if number is None or not math.isfinite(number) or number != int(number):
+            raise ConfigError(f"{where}: {value!r} is not an integer")
+        return int(number)
+    if hint is float:
+        number = _number(value)
+        if number is None or math.isnan(number):
+            raise ConfigError(f"{where}: {value!r} is not a real number")
+        return number
+    if hint is str:
+        if not isinstance(value, str):
+            raise ConfigError(f"{where}: {value!r} is not a string")
+        return value
+    if origin is Callable or hint is Callable:
+        if isinstance(value, str):
+            try:
+                schedule_start(value)
+                return value
+            except ValueError:
+                pass
+        raise ConfigError(f"{where}: {value!r} is not a schedule '{SCHEDULE_PREFIX}<start>', e.g. lin_3e-4")
+    if origin is tuple or origin is list:
+        if not isinstance(value, (list, tuple)):
+            raise ConfigError(f"{where}: {value!r} is not a list")
+        args = typing.get_args(hint)
+        if origin is tuple:
+            if len(args) != len(value):
+                raise ConfigError(f"{where}: {value!r} is not a list of {len(args)} items ({_describe(hint)})")
+            return tuple(coerce(v, a, where) for v, a in zip(value, args, strict=True))
+        return [coerce(v, args[0] if args else Any, where) for v in value]
+    if origin is dict or hint is dict:
+        if isinstance(value, str):
+            value = parse_dict(value, where)
+        if not isinstance(value, Mapping) or not all(isinstance(k, str) for k in value):
+            raise ConfigError(f"{where}: {value!r} is not a mapping with string keys")
+        return dict(value)
+    raise ConfigError(f"{where}: a {_describe(hint)} cannot be set in a config file")
+
+
+def _literal(node: ast.expr, where: str, names_allowed: bool) -> Any:
+    """A literal (numbers, strings, lists, tuples, dicts, ``dict(...)``) from an AST node; no evaluation."""
+    if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "dict" and not node.args:
+        if any(k.arg is None for k in node.keywords):
+            raise ConfigError(f"{where}: '**' is not allowed in {ast.unparse(node)!r}")
+        return {k.arg: _literal(k.value, where, k.arg in NAMED_CLASSES) for k in node.keywords}
+    if isinstance(node, ast.Dict):
+        out = {}
+        for key, value in zip(node.keys, node.values, strict=True):
+            k = _literal(key, where, False) if key is not None else None
+            if not isinstance(k, str):
+                raise ConfigError(f"{where}: dict keys must be strings in {ast.unparse(node)!r}")
+            out[k] = _literal(value, where, k in NAMED_CLASSES)
+        return out
+    if isinstance(node, (ast.List, ast.Tuple)):
+        items = [_literal(e, where, False) for e in node.elts]
+        return items if isinstance(node, ast.List) else tuple(items)
+    if isinstance(node, (ast.Name, ast.Attribute)) and names_allowed:
+        return ast.unparse(node)
+    try:
+        return ast.literal_eval(node)
+    except ValueError:
+        allowed = ", ".join(NAMED_CLASSES)
+        raise ConfigError(
+            f"{where}: {ast.unparse(node)!r} is not a literal (names are allowed only as {allowed})"
+        ) from None
+
+
+def parse_dict(text: str, where: str) -> dict[str, Any]:
+    """An RL-Zoo dict string, ``"dict(a=1, b=[2, 3])"`` or ``"{'a': 1}"``, parsed with ast (never evaluated)."""
+    try:
+        node = ast.parse(text.strip(), mode="eval").body
+    except SyntaxError as exc:
+        raise ConfigError(f"{where}: {text!r} is not a dict expression ({exc.msg})") from None
+    value = _literal(node, where, False)
+    if not isinstance(value, dict):
+        raise ConfigError(f"{where}: {text!r} is not a dict")
+    return value
+
+
+def resolve_class(name: str | type, module: types.ModuleType, base: type) -> type:
+    """The class of ``module`` named ``name`` (``nn.Tanh``, ``torch.nn.Tanh`` or ``Tanh``), a subclass of ``base``."""
+    if isinstance(name, type) and issubclass(name, base):
+        return name
+    short = str(name).rsplit(".", 1)[-1]
+    cls = getattr(module, short, None)
+    if not (isinstance(cls, type) and issubclass(cls, base)):
+        raise ValueError(f"{name!r} is not a {module.__name__} class derived from {base.__name__}")
+    return cls
+
+
+FIELD_HINTS = typing.get_type_hints(TrainConfig)
+ENTRY_FIELDS = [f.name for f in dataclasses.fields(TrainConfig) if f.name not in ("env_id", "algo", "hyperparams")]
+
+
+def config_from_entry(entry: Mapping[str, Any], env_id: str, algo: str, source: str) -> TrainConfig:
+    """Check and convert one config entry (flat RL-Zoo mapping) of ``env_id`` for ``algo``; ``source`` names it."""
+    if algo not in ALGOS:
+        raise ConfigError(f"{source}: unknown algorithm {algo!r}; choose one of {', '.join(ALGOS)}")
+    if env_id not in vegym.ENVS:
+        raise ConfigError(f"{source}: {env_id!r} is not a registered env; registered: {', '.join(vegym.ENVS)}")
+    if not isinstance(entry, Mapping):
+        raise ConfigError(f"{source}: the entry of {env_id} is {entry!r}, not a mapping of settings")
+    cls = ALGOS[algo]
+    hints = constructor_hints(cls)
+    values: dict[str, Any] = {}
+    hyperparams: dict[str, Any] = {}
+    for key, value in entry.items():
+        where = f"{source}: {env_id}: {key}"
+        if key in ENTRY_FIELDS:
+            values[key] = coerce(value, FIELD_HINTS[key], where)
+        elif key in hints and key not in PIPELINE_ARGS and not key.startswith("_"):
+            hyperparams[key] = coerce(value, hints[key], where)
+        else:
+            raise ConfigError(
+                f"{source}: {env_id}: unknown key {key!r}; allowed: {', '.join(ENTRY_FIELDS)} and "
+                f"{cls.__name__} arguments {', '.join(k for k in hints if k not in PIPELINE_ARGS)}"
+            )
+    if isinstance(values.get("normalize"), dict):
+        values["normalize"] = _normalize_kwargs(values["normalize"], f"{source}: {env_id}: normalize")
+    if "n_timesteps" not in values:
+        raise ConfigError(f"{source}: {env_id}: missing key 'n_timesteps'")
+    config = TrainConfig(env_id=env_id, algo=algo, hyperparams=hyperparams, **values)
+    _check(config, f"{source}: {env_id}")
+    return config
+
+
+def _normalize_kwargs(kwargs: dict[str, Any], where: str) -> dict[str, Any]:
+    hints = {k: v for k, v in constructor_hints(VecNormalize).items() if k not in ("self", "venv", "training")}
+    for key in kwargs:
+        if key not in hints:
+            raise ConfigError(f"{where}: unknown key {key!r}; allowed: {', '.join(hints)}")
+    return {key: coerce(value, hints[key], f"{where}: {key}") for key, value in kwargs.items()}
+
+
+def _check(c: TrainConfig, where: str) -> None:
+    """Ranges and cross-field rules of a typed config."""
+    for key in ("n_timesteps", "n_envs", "eval_freq", "n_eval_episodes", "save_freq"):
+        if getattr(c, key) < 1:
+            raise ConfigError(f"{where}: {key}={getattr(c, key)!r} must be at least 1")
+    if c.seed < 0:
+        raise ConfigError(f"{where}: seed={c.seed!r} must be non-negative")
+    if c.policy not in c.algo_class.policy_aliases:
+        raise ConfigError(f"{where}: policy={c.policy!r}; choose one of {', '.join(c.algo_class.policy_aliases)}")
+    if c.noise_type is not None:
+        if not issubclass(c.algo_class, OffPolicyAlgorithm):
+            raise ConfigError(f"{where}: noise_type={c.noise_type!r}: action noise is for sac and td3, not {c.algo}")
+        if c.noise_type not in NOISE_TYPES:
+            raise ConfigError(f"{where}: noise_type={c.noise_type!r}; choose one of {', '.join(NOISE_TYPES)} or null")
+    if c.noise_std < 0:
+        raise ConfigError(f"{where}: noise_std={c.noise_std!r} must be non-negative")
+    policy_hints = constructor_hints(c.algo_class.policy_aliases[c.policy])
+    for key, value in c.policy_kwargs.items():
+        if key not in policy_hints or key in ("self", "observation_space", "action_space", "lr_schedule"):
+            raise ConfigError(f"{where}: policy_kwargs: unknown key {key!r} for {c.policy} of {c.algo}")
+        if key in NAMED_CLASSES:
+            try:
+                resolve_class(value, *NAMED_CLASSES[key])
+            except ValueError as exc:
+                raise ConfigError(f"{where}: policy_kwargs: {key}: {exc}") from None
+    spec = vegym.ENVS[c.env_id]
+    registered = dict(gym.spec(c.env_id).kwargs)
+    try:
+        load_object(f"{spec['module']}:{spec['env']}").task_cls.params_cls(**{**registered, **c.env_kwargs})
+    except (TypeError, ValueError) as exc:
+        raise ConfigError(f"{where}: env_kwargs: {exc}") from None
+
+
+def read_yaml(path: Path) -> Any:
+    """A YAML file's content; ConfigError if it is missing or not YAML."""
+    try:
+        return yaml.safe_load(Path(path).read_text())
+    except FileNotFoundError:
+        raise ConfigError(f"{path}: no such config file") from None
+    except yaml.YAMLError as exc:
+        raise ConfigError(f"{path}: not valid YAML: {exc}") from None
+
+
+def load_configs(path: Path, algo: str | None = None) -> dict[str, TrainConfig]:
+    """Every entry of a config file, by env id; ``algo`` defaults to the file's name (``ppo.yml`` -> ppo)."""
+    path = Path(path)
+    algo = algo or path.stem
+    data = read_yaml(path)
+    if not isinstance(data, Mapping) or not data:
+        raise ConfigError(f"{path}: expected a mapping of env ids to settings")
+    return {env_id: config_from_entry(entry, str(env_id), algo, str(path)) for env_id, entry in data.items()}
+
+
+def load_config(
+    path: Path, env_id: str, algo: str | None = None, overrides: Mapping[str, Any] | None = None
+) -> TrainConfig:
+    """The entry of ``env_id`` in a config file, with ``overrides`` (e.g. ``seed``, ``n_timesteps``) applied."""
+    path = Path(path)
+    data = read_yaml(path)
+    if not isinstance(data, Mapping) or env_id not in data:
+        entries = ", ".join(map(str, data)) if isinstance(data, Mapping) else "none"
+        raise ConfigError(f"{path}: no entry for {env_id}; entries: {entries}")
+    entry = {**data[env_id], **(overrides or {})}
+    return config_from_entry(entry, env_id, algo or path.stem, str(path))
+
+
+def save_resolved(config: TrainConfig, path: Path) -> None:
+    """Write the resolved config (every field, with ``env_id`` and ``algo``) as YAML."""
+    Path(path).write_text(yaml.safe_dump(config.to_entry(), sort_keys=False))
+
+
+def load_resolved(path: Path) -> TrainConfig:
+    """Read a config written by :func:`save_resolved`."""
+    data = read_yaml(path)
+    if not isinstance(data, Mapping) or "env_id" not in data or "algo" not in data:
+        raise ConfigError(f"{path}: not a resolved config (it needs env_id and algo)")
+    entry = dict(data)
+    return config_from_entry(entry, str(entry.pop("env_id")), str(entry.pop("algo")), str(path))
+
+
+def with_overrides(config: TrainConfig, overrides: Mapping[str, Any], source: str) -> TrainConfig:
+    """``config`` with some entry keys changed (e.g. ``seed``, ``n_timesteps``), checked again."""
+    entry = {**config.to_entry(), **overrides}
+    return config_from_entry(entry, str(entry.pop("env_id")), str(entry.pop("algo")), source)
