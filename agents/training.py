@@ -1,0 +1,215 @@
+"""Training with stable-baselines3 from a :class:`~agents.config.TrainConfig`.
+
+A run directory holds ``model.zip``, ``config.yml`` (the resolved config), ``vecnormalize.pkl`` (with
+normalisation), ``checkpoints/``, ``eval/evaluations.npz``, ``train_stats.json`` (steps and wall time),
+``command.txt`` (when started from the CLI) and ``tb/`` (TensorBoard, only if it is installed). Ctrl-C stops
+training at the next env step and saves the model; ``resume=True`` continues from the newest of the
+checkpoints and ``model.zip``.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import re
+import signal
+import threading
+import time
+import zipfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback, EvalCallback
+from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
+from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv, VecMonitor, VecNormalize
+
+from agents.config import TrainConfig, load_resolved, save_resolved, with_overrides
+from agents.vec_adapter import VectorEnvAdapter
+
+MODEL_FILE = "model.zip"
+CONFIG_FILE = "config.yml"
+COMMAND_FILE = "command.txt"
+NORMALIZE_FILE = "vecnormalize.pkl"
+REPLAY_FILE = "replay_buffer.pkl"
+STATS_FILE = "train_stats.json"
+CHECKPOINT_DIR = "checkpoints"
+CHECKPOINT_PREFIX = "model"
+EVAL_SEED_OFFSET = 10_000
+"""The training-time evaluation env is seeded ``seed + EVAL_SEED_OFFSET`` (apart from the training episodes)."""
+
+
+def make_env(config: TrainConfig, seed: int, n_envs: int | None = None) -> VecEnv:
+    """Monitored SB3 vector env of the config's env: the native vector env (adapted) if ``n_envs > 1``."""
+    n = config.n_envs if n_envs is None else n_envs
+    if n > 1:
+        native = gym.make_vec(config.env_id, num_envs=n, vectorization_mode="vector_entry_point", **config.env_kwargs)
+        venv: VecEnv = VectorEnvAdapter(native)
+    else:
+        venv = DummyVecEnv([lambda: gym.make(config.env_id, **config.env_kwargs)])
+    venv.seed(seed)
+    return VecMonitor(venv)
+
+
+def build_model(config: TrainConfig, env: VecEnv, tensorboard_log: str | None = None) -> BaseAlgorithm:
+    """An untrained model of the config's algorithm on ``env``."""
+    kwargs = config.algo_kwargs(int(env.action_space.shape[0]))
+    return config.algo_class(config.policy, env, seed=config.seed, tensorboard_log=tensorboard_log, verbose=0, **kwargs)
+
+
+def saved_timesteps(path: Path) -> int:
+    """The ``num_timesteps`` stored in an SB3 model zip."""
+    with zipfile.ZipFile(path) as archive:
+        return int(json.loads(archive.read("data"))["num_timesteps"])
+
+
+def normalize_path(model_path: Path) -> Path:
+    """The VecNormalize statistics saved with a model: ``vecnormalize.pkl`` or a checkpoint's own file."""
+    match = re.fullmatch(rf"{CHECKPOINT_PREFIX}_(\d+)_steps\.zip", model_path.name)
+    if match:
+        return model_path.with_name(f"{CHECKPOINT_PREFIX}_vecnormalize_{match.group(1)}_steps.pkl")
+    return model_path.with_name(NORMALIZE_FILE)
+
+
+def latest_model(run_dir: Path) -> Path | None:
+    """The model of ``run_dir`` with the most training steps (checkpoints and ``model.zip``), or None."""
+    candidates = sorted((run_dir / CHECKPOINT_DIR).glob(f"{CHECKPOINT_PREFIX}_*_steps.zip"))
+    if (run_dir / MODEL_FILE).exists():
+        candidates.append(run_dir / MODEL_FILE)
+    return max(candidates, key=saved_timesteps, default=None)
+
+
+class StopOnSigint(BaseCallback):
+    """Turns the first Ctrl-C during ``learn`` into a clean stop at the next env step (a second one aborts)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.interrupted = False
+        self._previous: Any = None
+
+    def _on_training_start(self) -> None:
+        if threading.current_thread() is threading.main_thread():
+            self._previous = signal.signal(signal.SIGINT, self._handle)
+
+    def _handle(self, signum: int, frame: Any) -> None:
+        self.interrupted = True
+        signal.signal(signal.SIGINT, self._previous)
+
+    def _on_step(self) -> bool:
+        return not self.interrupted
+
+    def _on_training_end(self) -> None:
+        if self._previous is not None:
+            signal.signal(signal.SIGINT, self._previous)
+            self._previous = None
+
+
+@dataclass(frozen=True)
+class TrainResult:
+    """What a training run left behind."""
+
+    model_path: Path
+    timesteps: int
+    interrupted: bool
+    wall_time_s: float
+
+
+def _progress_bar_available() -> bool:
+    return all(importlib.util.find_spec(m) is not None for m in ("tqdm", "rich"))
+
+
+def train(
+    config: TrainConfig,
+    out: Path,
+    *,
+    resume: bool = False,
+    progress_bar: bool = True,
+    command: str | None = None,
+) -> TrainResult:
+    """Train ``config`` into the run directory ``out`` (see the module docstring); ``resume`` continues it."""
+    out = Path(out)
+    start = time.perf_counter()
+    source = latest_model(out) if out.exists() else None
+    if resume and source is None:
+        raise ValueError(f"--resume: {out} holds no model or checkpoint to resume from")
+    if not resume and source is not None:
+        raise ValueError(f"{out} already holds a training run; pass --resume or choose another --out")
+    out.mkdir(parents=True, exist_ok=True)
+    done = 0 if source is None else saved_timesteps(source)
+    env = make_env(config, config.seed + done)
+    eval_env = make_env(config, config.seed + EVAL_SEED_OFFSET, n_envs=1)
+    normalize = config.normalize_kwargs()
+    if normalize is not None:
+        stats = None if source is None else normalize_path(source)
+        env = VecNormalize.load(str(stats), env) if stats is not None else VecNormalize(env, **normalize)
+        eval_env = VecNormalize(eval_env, training=False, norm_reward=False)
+    tensorboard_log = str(out / "tb") if importlib.util.find_spec("tensorboard") is not None else None
+    if source is None:
+        save_resolved(config, out / CONFIG_FILE)
+        if command is not None:
+            (out / COMMAND_FILE).write_text(command + "\n")
+        model = build_model(config, env, tensorboard_log)
+    else:
+        model = config.algo_class.load(source, env=env, tensorboard_log=tensorboard_log)
+        replay = out / REPLAY_FILE
+        if isinstance(model, OffPolicyAlgorithm) and source.name == MODEL_FILE and replay.exists():
+            model.load_replay_buffer(replay)
+    stop = StopOnSigint()
+    callbacks = [
+        CheckpointCallback(
+            max(config.save_freq // config.n_envs, 1),
+            str(out / CHECKPOINT_DIR),
+            name_prefix=CHECKPOINT_PREFIX,
+            save_vecnormalize=normalize is not None,
+        ),
+        EvalCallback(
+            eval_env,
+            n_eval_episodes=config.n_eval_episodes,
+            eval_freq=max(config.eval_freq // config.n_envs, 1),
+            log_path=str(out / "eval"),
+            deterministic=True,
+            verbose=1,
+        ),
+        stop,
+    ]
+    remaining = config.n_timesteps - done
+    if remaining > 0:
+        model.learn(
+            remaining,
+            callback=callbacks,
+            progress_bar=progress_bar and _progress_bar_available(),
+            reset_num_timesteps=source is None,
+            tb_log_name=config.algo,
+        )
+    model.save(out / MODEL_FILE)
+    if isinstance(env, VecNormalize):
+        env.save(str(out / NORMALIZE_FILE))
+    if isinstance(model, OffPolicyAlgorithm):
+        if stop.interrupted:
+            model.save_replay_buffer(out / REPLAY_FILE)
+        else:
+            (out / REPLAY_FILE).unlink(missing_ok=True)
+    env.close()
+    eval_env.close()
+    return _record(out, model.num_timesteps, stop.interrupted, time.perf_counter() - start)
+
+
+def _record(out: Path, timesteps: int, interrupted: bool, seconds: float) -> TrainResult:
+    """Update ``train_stats.json`` (wall time summed over resumed segments) and return the result."""
+    stats_path = out / STATS_FILE
+    previous = json.loads(stats_path.read_text()) if stats_path.exists() else {"wall_time_s": 0.0}
+    total = float(previous["wall_time_s"]) + seconds
+    stats = {"timesteps": timesteps, "wall_time_s": round(total, 2), "interrupted": interrupted}
+    stats_path.write_text(json.dumps(stats, indent=2) + "\n")
+    return TrainResult(out / MODEL_FILE, timesteps, interrupted, total)
+
+
+def resume_config(out: Path, n_timesteps: int | None = None) -> TrainConfig:
+    """The saved config of the run in ``out``, with a new total ``n_timesteps`` if given."""
+    path = Path(out) / CONFIG_FILE
+    if not path.is_file():
+        raise ValueError(f"--resume: {out} holds no training run to resume (no {CONFIG_FILE})")
+    config = load_resolved(path)
+    return config if n_timesteps is None else with_overrides(config, {"n_timesteps": n_timesteps}, str(path))
