@@ -1,0 +1,192 @@
+"""``vegym compare``: every env's analytic controller, random policy, references and learned agents, side by side.
+
+Learned agents are the run directories ``<models>/<Env-v0>/<algo>/`` (``model.zip`` and its ``config.yml``);
+the shipped ones are in ``agents/pretrained/``. ``retrain`` remakes them from the committed configs. Output:
+``compare.json`` (one record per env and agent), ``compare.md``, ``normalized_scores.png``, per env
+``<Env-v0>_trajectory.png`` and one ``<Env-v0>_<agent>.gif`` per agent.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import shlex
+import shutil
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any
+
+from agents.config import ALGOS, CONFIG_DIR, env_name, load_config, read_yaml
+from agents.evaluation import EVAL_SEED, AgentFactory, EvalResult, agent_factories, evaluate_agents, load_learned
+from agents.plots import save_episode_gif, save_score_chart, save_trajectory_plot
+from agents.training import CHECKPOINT_DIR, MODEL_FILE, train
+
+PRETRAINED_DIR = Path(__file__).resolve().parent / "pretrained"
+"""The shipped learned agents: ``<Env-v0>/<algo>/``."""
+BY_PRODUCTS = (CHECKPOINT_DIR, "eval", "tb")
+"""Training by-products a retrained shipped agent does not keep."""
+
+
+def find_models(models_dir: Path, env_id: str, algos: Sequence[str]) -> dict[str, Path]:
+    """The run directories of ``env_id``'s learned agents under ``models_dir``, by algorithm."""
+    base = Path(models_dir) / env_name(env_id)
+    return {algo: base / algo for algo in algos if (base / algo / MODEL_FILE).is_file()}
+
+
+def configured_algos(env_id: str, algos: Sequence[str]) -> list[str]:
+    """The algorithms among ``algos`` whose committed config has an entry for ``env_id``."""
+    return [algo for algo in algos if env_id in (read_yaml(CONFIG_DIR / f"{algo}.yml") or {})]
+
+
+def _display(path: Path) -> str:
+    """``path`` relative to the working directory when it lies below it."""
+    return os.path.relpath(path) if Path(path).resolve().is_relative_to(Path.cwd()) else str(path)
+
+
+def train_command(env_id: str, algo: str, out: Path, timesteps: int | None = None) -> str:
+    """The ``vegym train`` command that trains ``algo`` on ``env_id`` from the committed config into ``out``."""
+    args = ["vegym", "train", "--env", env_name(env_id), "--algo", algo, "--out", _display(out)]
+    if timesteps is not None:
+        args += ["--timesteps", str(timesteps)]
+    return shlex.join(args)
+
+
+def retrain(
+    env_id: str, models_dir: Path, algos: Sequence[str], timesteps: int | None = None, progress_bar: bool = True
+) -> dict[str, Path]:
+    """Train every configured algorithm of ``algos`` on ``env_id`` afresh into ``<models_dir>/<Env-v0>/<algo>``."""
+    runs = {}
+    for algo in configured_algos(env_id, algos):
+        out = Path(models_dir) / env_name(env_id) / algo
+        shutil.rmtree(out, ignore_errors=True)
+        overrides = {} if timesteps is None else {"n_timesteps": timesteps}
+        config = load_config(CONFIG_DIR / f"{algo}.yml", env_id, algo, overrides)
+        result = train(config, out, progress_bar=progress_bar, command=train_command(env_id, algo, out, timesteps))
+        if result.interrupted:
+            raise KeyboardInterrupt
+        for name in BY_PRODUCTS:
+            shutil.rmtree(out / name, ignore_errors=True)
+        runs[algo] = out
+    return runs
+
+
+def _missing_note(env_id: str, models_dir: Path, algos: Sequence[str]) -> str:
+    """Why an env has no learned row, and how to make one."""
+    where = _display(Path(models_dir) / env_name(env_id))
+    configured = configured_algos(env_id, algos)
+    if configured:
+        command = train_command(env_id, configured[0], Path(models_dir) / env_name(env_id) / configured[0])
+        how = f"train one: `{command}`"
+    else:
+        how = f"no entry for {env_id} in configs/{{{','.join(algos)}}}.yml yet"
+    return f"no learned agent in {where}; showing the analytic and random agents only ({how})"
+
+
+def _learned(runs: dict[str, Path], env_id: str) -> tuple[dict[str, AgentFactory], dict[str, Any]]:
+    """Factories of the learned agents and the env kwargs they share (ValueError if they differ)."""
+    factories: dict[str, AgentFactory] = {}
+    env_kwargs: dict[str, dict[str, Any]] = {}
+    for algo, path in runs.items():
+        agent, config = load_learned(path)
+        if config.env_id != env_id:
+            raise ValueError(f"{path}: trained on {config.env_id}, not {env_id}")
+        factories[algo] = lambda env, agent=agent: agent
+        env_kwargs[algo] = config.env_kwargs
+    distinct = {json.dumps(kw, sort_keys=True) for kw in env_kwargs.values()}
+    if len(distinct) > 1:
+        raise ValueError(f"{env_id}: the learned agents were trained with different env_kwargs: {env_kwargs}")
+    return factories, next(iter(env_kwargs.values()), {})
+
+
+def _fmt(value: float | None, digits: int = 3) -> str:
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return "-"
+    return f"{value:.{digits}g}" if abs(value) >= 1e4 or (value != 0 and abs(value) < 1e-3) else f"{value:.{digits}f}"
+
+
+TABLE_COLUMNS = ("env", "agent", "return (mean ± std)", "success", "normalized", "vs reference", "control metrics")
+
+
+def table_rows(records: Sequence[dict[str, Any]]) -> list[list[str]]:
+    """The comparison table as text cells (one row per record), in :data:`TABLE_COLUMNS` order."""
+    rows = []
+    for r in records:
+        vs = ", ".join(f"{ref}: {_fmt(v)}" for ref, v in r["normalized_score_vs"].items()) or "-"
+        metrics = ", ".join(f"{k}={_fmt(v)}" for k, v in r["metrics"].items())
+        rows.append(
+            [
+                env_name(r["env_id"]),
+                r["agent"],
+                f"{_fmt(r['mean_return'])} ± {_fmt(r['std_return'])}",
+                "-" if r["success_rate"] is None else f"{100 * r['success_rate']:.0f}%",
+                _fmt(r["normalized_score"]),
+                vs,
+                metrics,
+            ]
+        )
+    return rows
+
+
+def markdown(
+    records: Sequence[dict[str, Any]], notes: Sequence[str], images: Sequence[str], episodes: int, seed: int
+) -> str:
+    """``compare.md``: the table, the notes and the figures."""
+    lines = [
+        "# vegym compare",
+        "",
+        f"{episodes} episodes per env and agent, seeds {seed}..{seed + episodes - 1}, deterministic actions. "
+        "normalized = (R - R_random) / (R_analytic - R_random); *vs reference*: the same against a stronger "
+        "reference (BouncingBall: `oracle`, the exact optimum knowing every future target).",
+        "",
+        "| " + " | ".join(TABLE_COLUMNS) + " |",
+        "|" + "---|" * len(TABLE_COLUMNS),
+    ]
+    lines += ["| " + " | ".join(row) + " |" for row in table_rows(records)]
+    if notes:
+        lines += ["", *[f"- {note}" for note in notes]]
+    lines += ["", *[f"![{Path(image).stem}]({image})" for image in images], ""]
+    return "\n".join(lines)
+
+
+def compare(
+    env_ids: Sequence[str],
+    out: Path,
+    episodes: int = 20,
+    seed: int = EVAL_SEED,
+    models_dir: Path = PRETRAINED_DIR,
+    algos: Sequence[str] = tuple(ALGOS),
+    retrain_agents: bool = False,
+    timesteps: int | None = None,
+    progress_bar: bool = True,
+    log: Callable[[str], None] = print,
+) -> tuple[list[dict[str, Any]], list[str]]:
+    """Evaluate and draw every env of ``env_ids``; write the files into ``out``; return the records and notes."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    records: list[dict[str, Any]] = []
+    notes: list[str] = []
+    images = ["normalized_scores.png"]
+    for env_id in env_ids:
+        name = env_name(env_id)
+        if retrain_agents:
+            log(f"{name}: retraining {', '.join(configured_algos(env_id, algos)) or 'nothing (no config entry)'}")
+            retrain(env_id, models_dir, algos, timesteps, progress_bar)
+        runs = find_models(models_dir, env_id, algos)
+        if not runs:
+            notes.append(f"{name}: {_missing_note(env_id, models_dir, algos)}")
+            log(notes[-1])
+        factories, env_kwargs = _learned(runs, env_id)
+        log(f"{name}: evaluating {', '.join(agent_factories(env_id, factories, seed))} on {episodes} episodes")
+        results = evaluate_agents(env_id, factories, episodes, seed, env_kwargs)
+        records += [r.record() for r in results]
+        shown: list[EvalResult] = [r for r in results if r.agent != "random"]
+        save_trajectory_plot(shown, out / f"{name}_trajectory.png", env_kwargs)
+        images.append(f"{name}_trajectory.png")
+        for agent, factory in agent_factories(env_id, factories, seed).items():
+            save_episode_gif(env_id, factory, seed, out / f"{name}_{agent}.gif", env_kwargs)
+            images.append(f"{name}_{agent}.gif")
+    (out / "compare.json").write_text(json.dumps(records, indent=2) + "\n")
+    save_score_chart(records, out / "normalized_scores.png")
+    (out / "compare.md").write_text(markdown(records, notes, images, episodes, seed))
+    return records, notes

@@ -1,0 +1,299 @@
+"""One evaluation for every agent: analytic controllers, the random policy, references, trained SB3 models.
+
+Every agent has SB3's ``predict(obs, state, episode_start, deterministic)`` and runs the same loop on the same
+single env: episode ``k`` of an evaluation starts from ``reset(seed=seed + k)``. Per env and agent it reports
+the mean and std of the return, the success rate (``info["is_success"]`` at the episode's last step), the
+normalized score ``(R - R_random) / (R_analytic - R_random)`` (1 matches the chapter's controller), the score
+against each stronger reference of the env (:data:`REFERENCE_AGENTS`) and the task's own control metrics
+(:data:`TASK_METRICS`), averaged over episodes.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
+
+from agents.analytic import BouncingBallOracle, controller_for
+from agents.config import TrainConfig, load_resolved
+from agents.training import CONFIG_FILE, MODEL_FILE, normalize_path
+
+EVAL_SEED = 1000
+"""First episode seed of evaluations; training uses small seeds, so the episodes differ."""
+
+Agent = Any
+"""Anything with SB3's ``predict(observation, state, episode_start, deterministic) -> (action, state)``."""
+AgentFactory = Callable[[gym.Env], Agent]
+"""Builds an agent for the single env it will act in (privileged references read that env's state)."""
+
+
+class RandomAgent:
+    """Uniform random actions in the action box, from a seeded generator: the score's lower reference."""
+
+    def __init__(self, action_space: spaces.Box, seed: int = 0) -> None:
+        self.space = action_space
+        self.rng = np.random.default_rng(seed)
+
+    def predict(
+        self, observation: np.ndarray, state: Any = None, episode_start: Any = None, deterministic: bool = False
+    ) -> tuple[np.ndarray, Any]:
+        batch = np.shape(observation)[:-1]
+        action = self.rng.uniform(self.space.low, self.space.high, (*batch, *self.space.shape))
+        return action.astype(self.space.dtype), state
+
+
+class LearnedAgent:
+    """A trained SB3 model, with the observation normalisation it was trained with (if any)."""
+
+    def __init__(self, model: BaseAlgorithm, normalizer: VecNormalize | None = None) -> None:
+        self.model = model
+        self.normalizer = normalizer
+
+    def predict(
+        self, observation: np.ndarray, state: Any = None, episode_start: Any = None, deterministic: bool = False
+    ) -> tuple[np.ndarray, Any]:
+        obs = self.normalizer.normalize_obs(observation) if self.normalizer is not None else observation
+        return self.model.predict(obs, state, episode_start, deterministic)
+
+
+def load_learned(path: Path) -> tuple[LearnedAgent, TrainConfig]:
+    """A trained agent from a run directory (its ``model.zip``) or a model zip, with its resolved config.
+
+    The config is ``config.yml`` beside the zip or one level up (checkpoints); VecNormalize statistics, when the
+    config normalises, are the ones saved with that zip.
+    """
+    path = Path(path)
+    model_path = path / MODEL_FILE if path.is_dir() else path
+    if not model_path.is_file():
+        raise ValueError(f"agent {str(path)!r}: no such model (expected a run directory or a .zip)")
+    config_path = next(
+        (d / CONFIG_FILE for d in (model_path.parent, model_path.parent.parent) if (d / CONFIG_FILE).is_file()), None
+    )
+    if config_path is None:
+        raise ValueError(f"agent {str(path)!r}: no {CONFIG_FILE} beside the model or one level up")
+    config = load_resolved(config_path)
+    model = config.algo_class.load(model_path, device="cpu")
+    normalizer = None
+    if config.normalize_kwargs() is not None:
+        stats = normalize_path(model_path)
+        if not stats.is_file():
+            raise ValueError(f"agent {str(path)!r}: the config normalises but {stats} is missing")
+        dummy = DummyVecEnv([lambda: gym.make(config.env_id, **config.env_kwargs)])
+        normalizer = VecNormalize.load(str(stats), dummy)
+        normalizer.training = False
+    return LearnedAgent(model, normalizer), config
+
+
+REFERENCE_AGENTS: dict[str, dict[str, AgentFactory]] = {
+    "vegym/BouncingBall-v0": {"oracle": BouncingBallOracle},
+}
+"""Stronger references than the analytic controller, per env (name -> factory); evaluated beside it."""
+
+BASELINES: dict[str, Callable[[int], AgentFactory]] = {
+    "analytic": lambda seed: controller_for,
+    "random": lambda seed: lambda env: RandomAgent(env.action_space, seed),
+}
+"""The two agents that define the normalized score, as factories of the evaluation seed."""
+
+
+@dataclass
+class Episode:
+    """One evaluated episode: ``observations`` has one more row than ``actions`` and ``rewards``."""
+
+    observations: np.ndarray
+    actions: np.ndarray
+    rewards: np.ndarray
+    infos: list[dict[str, Any]]
+
+    @property
+    def ret(self) -> float:
+        """The undiscounted return."""
+        return float(np.sum(self.rewards))
+
+    @property
+    def success(self) -> bool | None:
+        """``info["is_success"]`` at the last step, or None if the env does not report it."""
+        value = self.infos[-1].get("is_success") if self.infos else None
+        return None if value is None else bool(value)
+
+
+def _mean_over_steps(key: str, fn: Callable[[np.ndarray], np.ndarray] = np.abs) -> Callable[[Episode], float]:
+    return lambda ep: float(np.mean([fn(np.asarray(info[key])) for info in ep.infos]))
+
+
+def _rms_error(index: int, scale: float = 1.0) -> Callable[[Episode], float]:
+    return lambda ep: scale * float(np.sqrt(np.mean([info["errors"][index] ** 2 for info in ep.infos])))
+
+
+def _apex_error(ep: Episode) -> float:
+    return float(np.mean([abs(info["apex_height"] - info["target_height"]) for info in ep.infos]))
+
+
+def _elapsed(ep: Episode) -> float:
+    return float(sum(info["dt"] for info in ep.infos))
+
+
+_AIRCRAFT_METRICS: dict[str, Callable[[Episode], float]] = {
+    "altitude_rmse_m": _rms_error(0),
+    "airspeed_rmse_mps": _rms_error(1),
+    "heading_rmse_deg": _rms_error(2, math.degrees(1.0)),
+    "effort": lambda ep: float(np.mean(np.sum(ep.actions**2, axis=-1))),
+}
+
+TASK_METRICS: dict[str, dict[str, Callable[[Episode], float]]] = {
+    "vegym/BouncingBall-v0": {"apex_error_m": _apex_error},
+    "vegym/Projectile-v0": {"miss_distance_m": lambda ep: float(ep.infos[-1]["miss_distance"])},
+    "vegym/SteerableWheel-v0": {
+        "waypoints_passed": lambda ep: float(ep.infos[-1]["waypoint_index"]),
+        "time_s": _elapsed,
+        "steering_effort": _mean_over_steps("steer_increment", np.square),
+    },
+    "vegym/Aircraft-v0": _AIRCRAFT_METRICS,
+    "vegym/AircraftGusty-v0": _AIRCRAFT_METRICS,
+}
+"""The control metrics of each env, from an episode's infos and actions (averaged over episodes); every env
+also gets ``episode_length``. A new env adds its entry here."""
+
+
+@dataclass
+class EvalResult:
+    """An agent's evaluation on one env; :meth:`record` is its JSON form."""
+
+    env_id: str
+    agent: str
+    seed: int
+    episodes: list[Episode]
+    normalized_score: float | None = None
+    normalized_score_vs: dict[str, float | None] = field(default_factory=dict)
+
+    @property
+    def returns(self) -> np.ndarray:
+        return np.array([ep.ret for ep in self.episodes])
+
+    @property
+    def success_rate(self) -> float | None:
+        flags = [ep.success for ep in self.episodes]
+        return None if any(f is None for f in flags) else float(np.mean(flags))
+
+    def metrics(self) -> dict[str, float]:
+        """``episode_length`` and the env's :data:`TASK_METRICS`, each averaged over the episodes."""
+        table = {"episode_length": lambda ep: float(len(ep.rewards)), **TASK_METRICS.get(self.env_id, {})}
+        return {name: float(np.mean([fn(ep) for ep in self.episodes])) for name, fn in table.items()}
+
+    def record(self) -> dict[str, Any]:
+        returns = self.returns
+        return {
+            "env_id": self.env_id,
+            "agent": self.agent,
+            "episodes": len(self.episodes),
+            "seed": self.seed,
+            "mean_return": float(returns.mean()),
+            "std_return": float(returns.std()),
+            "success_rate": self.success_rate,
+            "normalized_score": self.normalized_score,
+            "normalized_score_vs": dict(self.normalized_score_vs),
+            "metrics": self.metrics(),
+        }
+
+
+def run_episode(env: gym.Env, agent: Agent, seed: int) -> Episode:
+    """One deterministic episode of ``agent`` from ``env.reset(seed=seed)``."""
+    obs, _ = env.reset(seed=seed)
+    observations, actions, rewards, infos = [obs], [], [], []
+    state, start = None, True
+    while True:
+        action, state = agent.predict(obs, state=state, episode_start=np.array([start]), deterministic=True)
+        obs, reward, terminated, truncated, info = env.step(action)
+        start = False
+        observations.append(obs)
+        actions.append(np.asarray(action, dtype=np.float64).reshape(env.action_space.shape))
+        rewards.append(float(reward))
+        infos.append(info)
+        if terminated or truncated:
+            return Episode(np.array(observations), np.array(actions), np.array(rewards), infos)
+
+
+def evaluate(
+    env_id: str,
+    agent: str,
+    factory: AgentFactory,
+    episodes: int = 20,
+    seed: int = EVAL_SEED,
+    env_kwargs: Mapping[str, Any] | None = None,
+) -> EvalResult:
+    """Run ``episodes`` episodes (seeds ``seed``, ``seed + 1``, ...) of the agent ``factory`` builds."""
+    if episodes < 1:
+        raise ValueError(f"episodes={episodes!r} must be at least 1")
+    env = gym.make(env_id, **dict(env_kwargs or {}))
+    try:
+        actor = factory(env)
+        return EvalResult(env_id, agent, seed, [run_episode(env, actor, seed + k) for k in range(episodes)])
+    finally:
+        env.close()
+
+
+def normalized(value: float, low: float, high: float) -> float | None:
+    """``(value - low) / (high - low)``, None when the references tie."""
+    return None if math.isclose(high, low, rel_tol=0.0, abs_tol=1e-12) else (value - low) / (high - low)
+
+
+def score(results: list[EvalResult]) -> None:
+    """Fill the normalized scores of one env's results (they must include ``analytic`` and ``random``)."""
+    means = {r.agent: float(r.returns.mean()) for r in results}
+    for name in ("analytic", "random"):
+        if name not in means:
+            raise ValueError(f"normalized scores need the {name!r} agent's result")
+    references = [r.agent for r in results if r.agent in REFERENCE_AGENTS.get(results[0].env_id, {})]
+    for r in results:
+        r.normalized_score = normalized(means[r.agent], means["random"], means["analytic"])
+        r.normalized_score_vs = {ref: normalized(means[r.agent], means["random"], means[ref]) for ref in references}
+
+
+def agent_factories(env_id: str, extra: Mapping[str, AgentFactory], seed: int = EVAL_SEED) -> dict[str, AgentFactory]:
+    """``analytic``, ``random`` and the env's references, then ``extra``: the agents an env is evaluated with."""
+    agents: dict[str, AgentFactory] = {name: make(seed) for name, make in BASELINES.items()}
+    agents.update(REFERENCE_AGENTS.get(env_id, {}))
+    agents.update(extra)
+    return agents
+
+
+def evaluate_agents(
+    env_id: str,
+    factories: Mapping[str, AgentFactory],
+    episodes: int = 20,
+    seed: int = EVAL_SEED,
+    env_kwargs: Mapping[str, Any] | None = None,
+) -> list[EvalResult]:
+    """The baselines, the env's references and ``factories`` on the same seeds, with normalized scores."""
+    agents = agent_factories(env_id, factories, seed)
+    results = [evaluate(env_id, name, f, episodes, seed, env_kwargs) for name, f in agents.items()]
+    score(results)
+    return results
+
+
+def agent_factory(spec: str, env_id: str, seed: int = EVAL_SEED) -> tuple[str, AgentFactory, TrainConfig | None]:
+    """Name, factory and (for a trained model) config of an agent named on the command line.
+
+    ``spec`` is ``analytic``, ``random``, a reference of the env (e.g. ``oracle`` for BouncingBall) or the path
+    of a trained model (run directory or zip) for the same env.
+    """
+    if spec in BASELINES:
+        return spec, BASELINES[spec](seed), None
+    references = REFERENCE_AGENTS.get(env_id, {})
+    if spec in references:
+        return spec, references[spec], None
+    if not Path(spec).exists():
+        choices = ", ".join([*BASELINES, *references, "PATH"])
+        raise ValueError(f"agent {spec!r} is neither a model path nor one of {choices}")
+    learned, config = load_learned(Path(spec))
+    if config.env_id != env_id:
+        raise ValueError(f"agent {spec!r} was trained on {config.env_id}, not {env_id}")
+    return config.algo, lambda env: learned, config
