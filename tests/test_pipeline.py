@@ -1,0 +1,400 @@
+"""The training/evaluation pipeline: configs, the VecEnv adapter, `vegym train/evaluate/compare`, Ctrl-C."""
+
+from __future__ import annotations
+
+import json
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+import pytest
+import torch
+from gymnasium.vector import AutoresetMode, SyncVectorEnv
+from stable_baselines3.common.vec_env import DummyVecEnv
+
+import vegym
+from agents.cli import main
+from agents.config import (
+    ALGOS,
+    CONFIG_DIR,
+    ConfigError,
+    LinearDecay,
+    load_config,
+    load_configs,
+    load_resolved,
+    save_resolved,
+)
+from agents.evaluation import EVAL_SEED, agent_factory, evaluate, evaluate_agents, load_learned
+from agents.training import build_model, make_env, saved_timesteps
+from agents.vec_adapter import VectorEnvAdapter
+
+CONFIG_FILES = sorted(CONFIG_DIR.glob("*.yml"))
+COMMITTED = [(path, env_id) for path in CONFIG_FILES for env_id in load_configs(path)]
+VEGYM = [sys.executable, "-c", "import sys; from agents.cli import main; sys.exit(main())"]
+
+
+def write_config(tmp_path: Path, text: str, name: str = "ppo.yml") -> Path:
+    path = tmp_path / name
+    path.write_text(text)
+    return path
+
+
+def run_cli(*args: str, timeout: float = 240) -> subprocess.CompletedProcess:
+    return subprocess.run([*VEGYM, *args], capture_output=True, text=True, timeout=timeout)
+
+
+# --- configs -----------------------------------------------------------------------------------------------------
+
+
+def test_every_algorithm_has_a_committed_config() -> None:
+    assert sorted(p.stem for p in CONFIG_FILES) == sorted(ALGOS)
+
+
+@pytest.mark.parametrize(("path", "env_id"), COMMITTED, ids=[f"{p.stem}-{e}" for p, e in COMMITTED])
+def test_committed_config_loads_and_builds_its_model(path: Path, env_id: str) -> None:
+    config = load_config(path, env_id)
+    assert config.algo == path.stem and config.env_id == env_id
+    env = make_env(config, seed=0)
+    try:
+        model = build_model(config, env)
+        assert isinstance(model, ALGOS[config.algo])
+        assert model.n_envs == config.n_envs
+        for key in ("gamma", "batch_size", "n_steps", "buffer_size"):
+            if key in config.hyperparams:
+                assert getattr(model, key) == config.hyperparams[key], key
+    finally:
+        env.close()
+
+
+def test_resolved_config_round_trips(tmp_path: Path) -> None:
+    config = load_config(CONFIG_DIR / "ppo.yml", "vegym/Projectile-v0", overrides={"seed": 7})
+    save_resolved(config, tmp_path / "config.yml")
+    assert load_resolved(tmp_path / "config.yml") == config
+
+
+def test_numeric_strings_and_rl_zoo_strings_are_converted(tmp_path: Path) -> None:
+    path = write_config(
+        tmp_path,
+        "vegym/BouncingBall-v0:\n"
+        "  n_timesteps: 1e5\n"
+        "  learning_rate: 3e-4\n"
+        "  clip_range: lin_0.2\n"
+        "  normalize: \"dict(norm_obs=True, norm_reward=False, clip_obs='5')\"\n"
+        '  policy_kwargs: "dict(net_arch=dict(pi=[32], vf=[32]), activation_fn=nn.ReLU)"\n',
+    )
+    config = load_config(path, "vegym/BouncingBall-v0")
+    assert config.n_timesteps == 100_000 and isinstance(config.n_timesteps, int)
+    assert config.hyperparams["learning_rate"] == pytest.approx(3e-4)
+    assert config.normalize == {"norm_obs": True, "norm_reward": False, "clip_obs": 5.0}
+    kwargs = config.algo_kwargs(action_dim=1)
+    assert kwargs["policy_kwargs"] == {"net_arch": {"pi": [32], "vf": [32]}, "activation_fn": torch.nn.ReLU}
+    assert kwargs["clip_range"] == LinearDecay(0.2) and kwargs["clip_range"](0.5) == pytest.approx(0.1)
+
+
+def test_off_policy_tuple_and_noise_settings(tmp_path: Path) -> None:
+    path = write_config(
+        tmp_path,
+        "vegym/Projectile-v0:\n  n_timesteps: 1000\n  train_freq: [1, episode]\n"
+        "  noise_type: normal\n  noise_std: 0.2\n",
+        "td3.yml",
+    )
+    config = load_config(path, "vegym/Projectile-v0")
+    assert config.hyperparams["train_freq"] == (1, "episode")
+    noise = config.algo_kwargs(action_dim=3)["action_noise"]
+    np.testing.assert_allclose(noise._sigma, [0.2, 0.2, 0.2])
+
+
+@pytest.mark.parametrize(
+    ("entry", "message"),
+    [
+        ("  n_timesteps: 1000\n  learning_rat: 0.001\n", "unknown key 'learning_rat'"),
+        ("  n_timesteps: 1000\n  tau: 0.01\n", "unknown key 'tau'"),  # a SAC/TD3 argument, not PPO's
+        ("  n_timesteps: 1000\n  verbose: 1\n", "unknown key 'verbose'"),  # set by the pipeline
+        ("  n_timesteps: 1000\n  batch_size: sixty-four\n", "batch_size: 'sixty-four' is not an integer"),
+        ("  n_timesteps: 1000\n  n_steps: 1.5\n", "n_steps: 1.5 is not an integer"),
+        ("  n_timesteps: 1000\n  gamma: [0.9]\n", "gamma: [0.9] is not a real number"),
+        ("  n_timesteps: 1000\n  normalize_advantage: 'yes'\n", "is not a bool"),
+        ("  n_timesteps: 1000\n  learning_rate: fast\n", "learning_rate: 'fast' is not"),
+        (
+            "  n_timesteps: 1000\n  rollout_buffer_class: RolloutBuffer\n",
+            "rollout_buffer_class: 'RolloutBuffer' is not",
+        ),
+        ("  n_timesteps: 0\n", "n_timesteps=0 must be at least 1"),
+        ("  n_envs: 4\n", "missing key 'n_timesteps'"),
+        ("  n_timesteps: 1000\n  noise_type: normal\n", "action noise is for sac and td3"),
+        ("  n_timesteps: 1000\n  policy: CnnPolicyX\n", "policy='CnnPolicyX'"),
+        ("  n_timesteps: 1000\n  env_kwargs: {gravity: -1.0}\n", "gravity=-1.0 is outside"),
+        ("  n_timesteps: 1000\n  env_kwargs: {gravty: 9.8}\n", "'gravty'"),
+        ("  n_timesteps: 1000\n  normalize: {norm_ob: true}\n", "normalize: unknown key 'norm_ob'"),
+        ("  n_timesteps: 1000\n  policy_kwargs: {net_arc: [64]}\n", "policy_kwargs: unknown key 'net_arc'"),
+        ("  n_timesteps: 1000\n  policy_kwargs: {activation_fn: nn.Nope}\n", "'nn.Nope' is not a torch.nn class"),
+        ("  n_timesteps: 1000\n  policy_kwargs: \"__import__('os').getcwd()\"\n", "is not a literal"),
+        ('  n_timesteps: 1000\n  policy_kwargs: "dict(net_arch=os.sep)"\n', "is not a literal"),
+        ("  n_timesteps: 1000\n  policy_kwargs: 'dict(net_arch=[64'\n", "is not a dict expression"),
+    ],
+)
+def test_bad_config_is_rejected_naming_file_and_key(tmp_path: Path, entry: str, message: str) -> None:
+    path = write_config(tmp_path, "vegym/BouncingBall-v0:\n" + entry)
+    with pytest.raises(ConfigError) as caught:
+        load_config(path, "vegym/BouncingBall-v0")
+    assert str(path) in str(caught.value)
+    assert message in str(caught.value)
+
+
+def test_config_file_errors(tmp_path: Path) -> None:
+    with pytest.raises(ConfigError, match="no entry for vegym/Projectile-v0"):
+        load_config(write_config(tmp_path, "vegym/BouncingBall-v0:\n  n_timesteps: 10\n"), "vegym/Projectile-v0")
+    with pytest.raises(ConfigError, match="'vegym/Nope-v0' is not a registered env"):
+        load_configs(write_config(tmp_path, "vegym/Nope-v0:\n  n_timesteps: 10\n"))
+    with pytest.raises(ConfigError, match="unknown algorithm 'a2c'"):
+        load_configs(write_config(tmp_path, "vegym/BouncingBall-v0:\n  n_timesteps: 10\n", "a2c.yml"))
+    with pytest.raises(ConfigError, match="not valid YAML"):
+        load_configs(write_config(tmp_path, "a: [1\n"))
+
+
+# --- the VecEnv adapter --------------------------------------------------------------------------------------------
+
+
+def assert_identical(a: Any, b: Any, where: str) -> None:
+    """Equal values of equal types, through dicts and arrays (dtype and shape included)."""
+    assert type(a) is type(b), f"{where}: {type(a).__name__} != {type(b).__name__}"
+    if isinstance(a, dict):
+        assert a.keys() == b.keys(), f"{where}: keys {sorted(a)} != {sorted(b)}"
+        for key in a:
+            assert_identical(a[key], b[key], f"{where}.{key}")
+    elif isinstance(a, (list, tuple)):
+        assert len(a) == len(b), f"{where}: length {len(a)} != {len(b)}"
+        for k, (x, y) in enumerate(zip(a, b, strict=True)):
+            assert_identical(x, y, f"{where}[{k}]")
+    elif isinstance(a, np.ndarray):
+        assert a.dtype == b.dtype and a.shape == b.shape, f"{where}: {a.dtype}{a.shape} != {b.dtype}{b.shape}"
+        np.testing.assert_array_equal(a, b, err_msg=where)
+    else:
+        assert a == b, f"{where}: {a!r} != {b!r}"
+
+
+def run_both(env_id: str, adapted: Any, n: int, limit: int, steps: int = 60) -> int:
+    """Step the adapter and DummyVecEnv with the same actions; return the count of steps with mixed resets."""
+    dummy = DummyVecEnv([lambda: gym.make(env_id, max_episode_steps=limit) for _ in range(n)])
+    adapted.seed(5)
+    dummy.seed(5)
+    assert_identical(adapted.reset(), dummy.reset(), "reset obs")
+    rng = np.random.default_rng(3)
+    mixed = 0
+    for t in range(steps):
+        if t == 1:  # stagger fixed-length episodes: restart sub-env 0 in both, as a single env's reset() does
+            first = np.arange(n) == 0
+            assert_identical(
+                adapted.venv.reset(options={"reset_mask": first})[0][0], dummy.envs[0].reset()[0], "restart"
+            )
+        actions = rng.uniform(-1.0, 1.0, (n, *adapted.action_space.shape)).astype(np.float32)
+        actions[rng.random(n) < 0.2] = -1.0
+        got, want = adapted.step(actions), dummy.step(actions)
+        for k, name in enumerate(("obs", "rewards", "dones")):
+            assert_identical(got[k], want[k], f"step {t} {name}")
+        assert_identical(list(got[3]), list(want[3]), f"step {t} infos")
+        assert_identical(adapted.reset_infos, dummy.reset_infos, f"step {t} reset_infos")
+        mixed += int(0 < want[2].sum() < n)
+    return mixed
+
+
+@pytest.mark.parametrize("env_id", list(vegym.ENVS))
+def test_adapter_over_native_vector_env_equals_dummy_vec_env(env_id: str) -> None:
+    n, limit = 4, min(gym.spec(env_id).max_episode_steps, 9)
+    native = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", max_episode_steps=limit)
+    mixed = run_both(env_id, VectorEnvAdapter(native), n, limit)
+    if limit > 1:
+        assert mixed > 0, "no step ended some episodes and not others"
+
+
+def test_adapter_over_gymnasium_sync_vector_env_equals_dummy_vec_env() -> None:
+    env_id, n, limit = "vegym/BouncingBall-v0", 3, 10
+    sync = SyncVectorEnv([lambda: gym.make(env_id, max_episode_steps=limit) for _ in range(n)])
+    assert sync.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
+    assert run_both(env_id, VectorEnvAdapter(sync), n, limit) > 0
+
+
+def test_adapter_rejects_same_step_autoreset() -> None:
+    sync = SyncVectorEnv([lambda: gym.make("vegym/Projectile-v0")], autoreset_mode=AutoresetMode.SAME_STEP)
+    with pytest.raises(ValueError, match="needs AutoresetMode.NEXT_STEP"):
+        VectorEnvAdapter(sync)
+
+
+# --- evaluation ----------------------------------------------------------------------------------------------------
+
+
+def test_bouncing_ball_analytic_score_matches_the_closed_form() -> None:
+    """The myopic law reaches a target if the ball can (apex_k = min(t_k, apex_{k-1}), from drop_height)."""
+    env = gym.make("vegym/BouncingBall-v0")
+    p = env.unwrapped.params
+    result = evaluate("vegym/BouncingBall-v0", "analytic", agent_factory("analytic", "vegym/BouncingBall-v0")[1], 20)
+    expected = []
+    for episode in result.episodes:
+        apex, total = p.drop_height, 0.0
+        for info in episode.infos:
+            apex = min(info["target_height"], apex)
+            total -= abs(apex - info["target_height"]) / (p.drop_height - p.radius)
+        expected.append(total)
+    assert len(result.episodes) == 20 and all(len(ep.infos) == 10 for ep in result.episodes)
+    np.testing.assert_allclose(result.returns, expected, atol=1e-5)
+    assert result.record()["mean_return"] == pytest.approx(np.mean(expected), abs=1e-5)
+
+
+def test_oracle_is_never_beaten_by_the_analytic_controller() -> None:
+    results = {r.agent: r for r in evaluate_agents("vegym/BouncingBall-v0", {}, episodes=20)}
+    assert set(results) == {"analytic", "random", "oracle"}
+    assert np.all(results["oracle"].returns >= results["analytic"].returns - 1e-6)
+    assert results["analytic"].normalized_score == pytest.approx(1.0)
+    assert results["random"].normalized_score == pytest.approx(0.0)
+    assert results["oracle"].normalized_score_vs["oracle"] == pytest.approx(1.0)
+    assert 0.0 < results["analytic"].normalized_score_vs["oracle"] < 1.0
+
+
+def test_evaluate_cli_reproduces_the_projectile_firing_solution(tmp_path: Path) -> None:
+    """The firing solution hits every target dead on: return = hit bonus - miss/60 = 1, success 100%."""
+    out = tmp_path / "eval.json"
+    assert (
+        main(["evaluate", "--env", "Projectile-v0", "--agent", "analytic", "--episodes", "20", "--json", str(out)]) == 0
+    )
+    record = json.loads(out.read_text())
+    assert record["env_id"] == "vegym/Projectile-v0" and record["agent"] == "analytic"
+    assert record["episodes"] == 20 and record["seed"] == EVAL_SEED
+    assert record["success_rate"] == 1.0
+    assert record["mean_return"] == pytest.approx(1.0, abs=1e-4)
+    assert record["metrics"]["miss_distance_m"] < 1e-3
+    assert record["normalized_score"] == pytest.approx(1.0)
+
+
+def test_random_agent_is_reproducible_and_scores_zero() -> None:
+    factory = agent_factory("random", "vegym/Projectile-v0")[1]
+    first = evaluate("vegym/Projectile-v0", "random", factory, 5)
+    again = evaluate("vegym/Projectile-v0", "random", factory, 5)
+    np.testing.assert_array_equal(first.returns, again.returns)
+    assert first.success_rate is not None and first.success_rate < 0.5
+
+
+# --- train, Ctrl-C, resume -----------------------------------------------------------------------------------------
+
+
+def test_train_cli_tiny_budget_produces_a_loadable_model(tmp_path: Path) -> None:
+    out = tmp_path / "run"
+    args = ["train", "--env", "Projectile-v0", "--algo", "ppo", "--timesteps", "256", "--out", str(out)]
+    proc = run_cli(*args, "--no-progress")
+    assert proc.returncode == 0, proc.stderr
+    agent, config = load_learned(out)
+    assert config.n_timesteps == 256 and config.algo == "ppo" and config.env_id == "vegym/Projectile-v0"
+    assert saved_timesteps(out / "model.zip") >= 256
+    assert (out / "command.txt").read_text().strip() == " ".join(["vegym", *args, "--no-progress"])
+    assert json.loads((out / "train_stats.json").read_text())["interrupted"] is False
+    action, _ = agent.predict(np.zeros(4, dtype=np.float32), deterministic=True)
+    assert action.shape == (3,)
+    again = run_cli(*args)
+    assert again.returncode == 2 and "already holds a training run" in again.stdout
+
+
+def test_sigint_saves_a_loadable_model_and_resume_continues(tmp_path: Path) -> None:
+    config = write_config(
+        tmp_path,
+        "vegym/BouncingBall-v0:\n  n_timesteps: 1e7\n  n_envs: 2\n  n_steps: 64\n  batch_size: 64\n"
+        "  save_freq: 256\n  eval_freq: 1e7\n  normalize: true\n",
+    )
+    out = tmp_path / "run"
+    args = ["train", "--env", "BouncingBall-v0", "--algo", "ppo", "--config", str(config), "--out", str(out)]
+    proc = subprocess.Popen([*VEGYM, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.monotonic() + 120
+    while not list((out / "checkpoints").glob("model_*_steps.zip")) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    time.sleep(0.5)  # let the checkpoint's files be complete
+    proc.send_signal(signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 130, stderr
+    assert "Traceback" not in stderr and "interrupted at" in stdout
+    checkpoint = sorted((out / "checkpoints").glob("model_*_steps.zip"))[0]
+    for path in (checkpoint, out / "model.zip"):
+        agent, _ = load_learned(path)
+        assert agent.normalizer is not None
+        agent.predict(np.full(6, 0.5, dtype=np.float32), deterministic=True)
+    stopped = saved_timesteps(out / "model.zip")
+    assert 256 <= stopped < 10_000_000
+    resumed = run_cli(*args[:5], "--out", str(out), "--resume", "--timesteps", str(stopped + 200), "--no-progress")
+    assert resumed.returncode == 0, resumed.stdout + resumed.stderr
+    assert saved_timesteps(out / "model.zip") >= stopped + 200
+    assert json.loads((out / "train_stats.json").read_text())["interrupted"] is False
+
+
+# --- compare and the CLI -------------------------------------------------------------------------------------------
+
+
+REQUIRED = {"env_id", "agent", "episodes", "mean_return", "std_return", "success_rate", "normalized_score"}
+
+
+def test_compare_retrains_on_a_tiny_budget_and_writes_every_file(tmp_path: Path) -> None:
+    out, models = tmp_path / "out", tmp_path / "models"
+    args = ["compare", "--envs", "BouncingBall-v0", "Projectile-v0", "--episodes", "2", "--out", str(out)]
+    proc = run_cli(*args, "--models", str(models), "--retrain", "--algos", "ppo", "--timesteps", "256", "--no-progress")
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    records = json.loads((out / "compare.json").read_text())
+    agents = {(r["env_id"], r["agent"]) for r in records}
+    assert agents == {
+        *(("vegym/BouncingBall-v0", a) for a in ("analytic", "random", "oracle", "ppo")),
+        *(("vegym/Projectile-v0", a) for a in ("analytic", "random", "ppo")),
+    }
+    for r in records:
+        assert REQUIRED <= r.keys() and r["episodes"] == 2
+    assert {r["normalized_score"] for r in records if r["agent"] in ("analytic", "random")} == {0.0, 1.0}
+    markdown = (out / "compare.md").read_text()
+    for name in ("BouncingBall-v0", "Projectile-v0"):
+        assert (out / f"{name}_trajectory.png").stat().st_size > 0
+        for agent in ("analytic", "random", "ppo"):
+            assert (out / f"{name}_{agent}.gif").stat().st_size > 0
+            assert f"| {name} | {agent} |" in markdown
+        run = models / name / "ppo"
+        assert (run / "model.zip").is_file() and not (run / "checkpoints").exists()
+        command = f"vegym train --env {name} --algo ppo --out {run} --timesteps 256"
+        assert (run / "command.txt").read_text().strip() == command
+    assert (out / "BouncingBall-v0_oracle.gif").stat().st_size > 0
+    assert (out / "normalized_scores.png").stat().st_size > 0
+
+
+def test_compare_without_learned_agents_says_so(tmp_path: Path) -> None:
+    out = tmp_path / "out"
+    argv = ["compare", "--envs", "Projectile-v0", "--episodes", "2", "--out", str(out), "--models", str(tmp_path)]
+    assert main(argv) == 0
+    records = json.loads((out / "compare.json").read_text())
+    assert [r["agent"] for r in records] == ["analytic", "random"]
+    assert "Projectile-v0: no learned agent" in (out / "compare.md").read_text()
+
+
+@pytest.mark.parametrize("command", ["list", "train", "evaluate", "compare", "demo"])
+def test_every_command_has_help(command: str, capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as caught:
+        main([command, "--help"])
+    assert caught.value.code == 0
+    assert f"usage: vegym {command}" in capsys.readouterr().out
+
+
+def test_list_shows_every_env(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["list"]) == 0
+    out = capsys.readouterr().out
+    for env_id in vegym.ENVS:
+        assert env_id in out
+
+
+def test_bad_input_is_a_clear_error(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["evaluate", "--env", "Nope-v0"]) == 2
+    assert "unknown env 'Nope-v0'" in capsys.readouterr().out
+    assert main(["evaluate", "--env", "Projectile-v0", "--agent", "oracle"]) == 2
+    assert "agent 'oracle' is neither a model path nor one of analytic, random, PATH" in capsys.readouterr().out
+    assert main(["train", "--env", "Projectile-v0", "--algo", "ppo", "--out", str(tmp_path), "--resume"]) == 2
+    assert "holds no training run to resume" in capsys.readouterr().out
+
+
+def test_demo_writes_a_gif(tmp_path: Path) -> None:
+    gif = tmp_path / "demo.gif"
+    assert main(["demo", "--env", "BouncingBall-v0", "--agent", "oracle", "--gif", str(gif)]) == 0
+    assert gif.read_bytes()[:6] == b"GIF89a"
