@@ -143,6 +143,8 @@ def train(
     normalize = config.normalize_kwargs()
     if normalize is not None:
         stats = None if source is None else normalize_path(source)
+        if stats is not None and not stats.is_file():
+            raise ValueError(f"--resume: {source} needs its normalisation statistics {stats}, which are missing")
         env = VecNormalize.load(str(stats), env) if stats is not None else VecNormalize(env, **normalize)
         eval_env = VecNormalize(eval_env, training=False, norm_reward=False)
     tensorboard_log = str(out / "tb") if importlib.util.find_spec("tensorboard") is not None else None
