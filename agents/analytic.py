@@ -17,8 +17,11 @@ import numpy as np
 
 from vegym.envs.aircraft import AircraftEnvParams, AircraftTask
 from vegym.envs.base import Task
+from vegym.envs.billiards import BilliardsParams, BilliardsTask, ghost_ball_shot
 from vegym.envs.bouncing_ball import BouncingBallParams, BouncingBallTask, optimal_apexes
+from vegym.envs.gear_train import GearTrainParams, GearTrainTask
 from vegym.envs.projectile import AZIMUTH_LIMIT, ELEVATION_LIMIT, ProjectileEnvParams, ProjectileTask
+from vegym.envs.projectile_adjust import ProjectileAdjustParams, ProjectileAdjustTask, wind_from_shot
 from vegym.envs.steerable_wheel import SteerableWheelParams, SteerableWheelTask
 from vegym.physics import aircraft, projectile
 
@@ -168,11 +171,77 @@ class AircraftAutopilot(AnalyticController):
         return aircraft.action_from_command(aircraft.autopilot(errors, self.physics, self.gains), self.physics)
 
 
+class ProjectileAdjustFire(AnalyticController):
+    """Adjust-fire (PHYSICS.md section 6): the firing solution for the wind estimated from the newest miss.
+
+    Before any shot the wind estimate is zero, so the first shot is the wind-free direct fire at ``speed_max``;
+    after a shot, :func:`~vegym.envs.projectile_adjust.wind_from_shot` turns its miss and its action into the
+    wind (exact: the miss of the wind-free solution is the wind times the flight time), and the next shot is the
+    quartic firing solution for that wind, which hits.
+    """
+
+    def __init__(self, params: ProjectileAdjustParams) -> None:
+        self.params = params
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        p = self.params
+        n = len(obs)
+        zeros = np.zeros(n)
+        distance, height = obs[:, 0] * p.target_distance_max, obs[:, 1] * p.height_scale
+        fired = obs[:, 3] > 0.5
+        wind = np.zeros((n, 3))
+        wind[fired] = wind_from_shot(distance[fired], height[fired], obs[fired, 4:6] * p.miss_scale, obs[fired, 6:9], p)
+        delta = np.stack([distance, p.radius - height, zeros], axis=-1)
+        elevation, azimuth, _, _ = projectile.firing_solution(delta, wind, p.speed_max, p.physics)
+        return np.stack([elevation / ELEVATION_LIMIT, azimuth / AZIMUTH_LIMIT, np.ones(n)], axis=-1)
+
+
+class BilliardsGhostBall(AnalyticController):
+    """The ghost-ball aim (PHYSICS.md section 5) with the strike speed that rests B on the target.
+
+    From the observation (distance A-B, distance and bearing of the target from B in the frame of the line A-B)
+    :func:`~vegym.envs.billiards.ghost_ball_shot` gives the cut sine (A's path through the ghost point
+    ``c_b - (r_a + r_b) d*``) and the speed: B leaves at ``u_b = sqrt(2 a D)`` along ``d*``, which the impact
+    (8.60) and the cloth's deceleration turn into the strike speed.
+    """
+
+    def __init__(self, params: BilliardsParams) -> None:
+        self.params = params
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        p = self.params
+        bearing = np.arctan2(obs[:, 2], obs[:, 3])
+        sin_cut, speed = ghost_ball_shot(obs[:, 0] * p.ball_distance_max, obs[:, 1] * p.target_distance_max, bearing, p)
+        return np.stack([sin_cut, 2.0 * speed / p.speed_max - 1.0], axis=-1)
+
+
+class GearTrainProportional(AnalyticController):
+    """Saturated proportional control through the ratio (PHYSICS.md section 2), from the observation.
+
+    With the wrapped output error ``e = atan2(sin, cos)`` and the ratio ``rho = omega_out / omega_in`` (observed),
+    the output speed demand is ``k e`` and the motor command ``omega_in = clip(k e / rho, +-max_speed)``; the
+    default gain ``k = 1 / (2 dt)`` halves the error each step while the motor is not saturated.
+    """
+
+    def __init__(self, params: GearTrainParams, gain: float | None = None) -> None:
+        self.params = params
+        self.gain = gain if gain is not None else 0.5 / params.dt
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        p = self.params
+        error = np.arctan2(obs[:, 0], obs[:, 1])
+        ratio = obs[:, 3] * p.ratio_max
+        return (np.clip(self.gain * error / ratio, -p.max_speed, p.max_speed) / p.max_speed)[:, None]
+
+
 CONTROLLERS: dict[type[Task], Callable[[Any], AnalyticController]] = {
     BouncingBallTask: BouncingBallMyopic,
     ProjectileTask: ProjectileFiringSolution,
     AircraftTask: AircraftAutopilot,
     SteerableWheelTask: SteerableWheelPurePursuit,
+    BilliardsTask: BilliardsGhostBall,
+    GearTrainTask: GearTrainProportional,
+    ProjectileAdjustTask: ProjectileAdjustFire,
 }
 """Reference controller of each task, built from the task's parameters."""
 

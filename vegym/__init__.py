@@ -43,6 +43,24 @@ ENVS: dict[str, dict[str, object]] = {
         "kwargs": {"draft_max": 4.0, "gust_amplitude": 2.0},
         "summary": "Aircraft-v0 in a steady updraft or downdraft with gusts",
     },
+    "vegym/Billiards-v0": {
+        "module": "vegym.envs.billiards",
+        "env": "BilliardsEnv",
+        "max_episode_steps": 1,
+        "summary": "strike ball A so that ball B, after the oblique impact, slides to rest on a target (one strike)",
+    },
+    "vegym/GearTrain-v0": {
+        "module": "vegym.envs.gear_train",
+        "env": "GearTrainEnv",
+        "max_episode_steps": 200,
+        "summary": "drive the input gear of a chain of external gears so the output gear holds a target angle",
+    },
+    "vegym/ProjectileAdjust-v0": {
+        "module": "vegym.envs.projectile_adjust",
+        "env": "ProjectileAdjustEnv",
+        "max_episode_steps": 16,
+        "summary": "Projectile-v0 with the wind hidden: up to 3 shots, correcting from where the previous ones landed",
+    },
 }
 """Registered env ids: the module, the env class (its vector twin is ``<Name>VectorEnv`` minus ``Env``),
 the episode length, optional default keyword arguments (``kwargs``) and a one-line description."""

@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 
 from vegym.envs.aircraft import AircraftEnvParams
-from vegym.render import canvas
+from vegym.render import canvas, clock
 
 WIDTH, HEIGHT = 900, 520
 _MIN_SPAN = 4000.0
@@ -138,3 +138,4 @@ class AircraftRenderer:
             verdict = "within tolerance" if self.last["is_success"] else "not within tolerance"
             lines.append(f"reward {sum(self.last['reward_terms'].values()):+.3f}   {verdict} of the demand flown")
         canvas.text(surface, lines, (12, 8), 20)
+        clock.draw_clock(surface, self.times[-1], (WIDTH - clock.CORNER, clock.CORNER), clock.RADIUS)

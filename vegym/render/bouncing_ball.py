@@ -7,7 +7,7 @@ from typing import Any
 import numpy as np
 
 from vegym.envs.bouncing_ball import BouncingBallParams
-from vegym.render import canvas
+from vegym.render import canvas, clock
 
 WIDTH, HEIGHT = 640, 400
 
@@ -69,6 +69,7 @@ class BouncingBallRenderer:
                 f"target {self.last['target_height']:.3f} m   impact {self.last['impact_speed']:.2f} m/s"
             )
         canvas.text(surface, lines, (12, 10), 20)
+        clock.draw_clock(surface, self.time, (WIDTH - clock.CORNER, clock.CORNER), clock.RADIUS)
         canvas.text(
             surface, ["height of centre (m) over time (s); dashes: targets"], (12, HEIGHT - 24), 16, canvas.GREY
         )

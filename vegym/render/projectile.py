@@ -8,7 +8,7 @@ import numpy as np
 
 from vegym.envs.projectile import ProjectileEnvParams, ProjectileTask
 from vegym.physics import projectile
-from vegym.render import canvas
+from vegym.render import canvas, clock
 
 WIDTH, HEIGHT = 640, 480
 
@@ -75,4 +75,6 @@ class ProjectileRenderer:
         canvas.text(surface, lines, (12, 8), 19)
         canvas.text(surface, ["side view along the line of fire (m)"], (44, 52), 16, canvas.GREY)
         canvas.text(surface, ["top view; green arrow: wind"], (44, 322), 16, canvas.GREY)
+        flight_time = float(self.shot["flight_time"]) if self.shot else 0.0
+        clock.draw_clock(surface, flight_time, (WIDTH - 25, 25), 22)  # above the side view's frame
         return canvas.to_array(surface)

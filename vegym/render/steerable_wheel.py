@@ -9,7 +9,7 @@ import numpy as np
 from vegym.envs.steerable_wheel import SteerableWheelParams
 from vegym.physics import wheel
 from vegym.physics.wheel import Pose
-from vegym.render import canvas
+from vegym.render import canvas, clock
 
 WIDTH, HEIGHT = 880, 640
 SPOKES = 6
@@ -161,3 +161,4 @@ class SteerableWheelRenderer:
             lines += ["", "reward terms (last step)"]
             lines += [f"  {name:9s}{value:+.3f}" for name, value in self.last["reward_terms"].items()]
         canvas.text(surface, lines, (604, 280), 20)
+        clock.draw_clock(surface, t, (WIDTH - clock.CORNER, clock.CORNER), clock.RADIUS)

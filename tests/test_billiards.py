@@ -1,0 +1,116 @@
+"""Billiards-v0: the ghost-ball strike rests B on the target, info is the impact physics, the envelope is reachable."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import vegym  # noqa: F401
+from agents.analytic import BilliardsGhostBall, controller_for
+from vegym.envs.billiards import BilliardsParams, BilliardsTask, ghost_ball_shot
+from vegym.physics import collision
+
+ENV_ID = "vegym/Billiards-v0"
+
+
+def strike(policy: str, n: int = 300, seed: int = 0, **params: float) -> tuple[np.ndarray, np.ndarray, dict]:
+    env = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", **params)
+    controller = controller_for(env)
+    env.action_space.seed(seed)
+    obs, _ = env.reset(seed=seed)
+    action = controller.predict(obs)[0] if policy == "ghost_ball" else env.action_space.sample()
+    _, reward, terminated, _, info = env.step(action)
+    assert terminated.all()
+    return reward, info["is_success"], info
+
+
+@pytest.mark.parametrize(
+    "params", [{}, {"mass_a": 0.25, "mass_b": 0.12, "restitution": 0.6}, {"restitution": 0.0, "speed_max": 5.0}]
+)
+def test_the_ghost_ball_strike_always_hits_and_beats_random_by_far(params: dict) -> None:
+    reward, hit, info = strike("ghost_ball", **params)
+    random_reward, random_hit, _ = strike("random", **params)
+    assert hit.all() and info["miss_distance"].max() < 1e-5
+    assert random_hit.mean() < 0.05
+    assert reward.mean() > random_reward.mean() + 2.0
+
+
+def test_info_is_the_impact_and_the_slide_in_si_units() -> None:
+    _, _, info = strike("random", n=500, seed=3)
+    p = BilliardsParams()
+    hit_b = info["contact"]
+    assert 0.5 < hit_b.mean() < 1.0  # random strikes both reach B and stop short of it
+    incoming = info["strike_velocity"] / np.linalg.norm(info["strike_velocity"], axis=-1, keepdims=True)
+    normal = (info["ball_b"] - info["contact_point"]) / p.contact_distance
+    with np.errstate(divide="ignore", invalid="ignore"):
+        impact_speed = np.where(hit_b, info["closing_speed"] / np.sum(incoming * normal, axis=-1), 0.0)
+    impact = incoming * impact_speed[:, None]
+    momentum = p.mass_a * info["velocity_a"] + p.mass_b * info["velocity_b"]
+    np.testing.assert_allclose(momentum[hit_b], p.mass_a * impact[hit_b], atol=1e-12)
+    gap = np.linalg.norm(info["ball_b"] - info["contact_point"], axis=-1)
+    np.testing.assert_allclose(gap[hit_b], p.contact_distance, rtol=1e-9)
+    kinetic = 0.5 * p.mass_a * np.sum(impact**2, -1) - 0.5 * (
+        p.mass_a * np.sum(info["velocity_a"] ** 2, -1) + p.mass_b * np.sum(info["velocity_b"] ** 2, -1)
+    )
+    np.testing.assert_allclose(kinetic, info["energy_lost"], atol=1e-12)
+    speed_b = np.linalg.norm(info["velocity_b"], axis=-1)
+    np.testing.assert_allclose(
+        info["rest_b"], info["ball_b"] + info["velocity_b"] * (speed_b / (2 * p.deceleration))[:, None], atol=1e-12
+    )
+    missed = ~hit_b
+    np.testing.assert_array_equal(info["rest_b"][missed], info["ball_b"][missed])
+    np.testing.assert_array_equal(info["closing_speed"][missed], 0.0)
+    strike_speed = np.linalg.norm(info["strike_velocity"], axis=-1)
+    np.testing.assert_allclose(info["duration"][missed], strike_speed[missed] / p.deceleration)
+    travelled = strike_speed**2 / (2 * p.deceleration)
+    stopped = info["ball_a"] + incoming * travelled[:, None]
+    np.testing.assert_allclose(info["rest_a"][missed], stopped[missed], atol=1e-12)
+
+
+def test_the_cut_action_sets_the_angle_at_which_b_departs_from_a_s_path() -> None:
+    task = BilliardsTask(BilliardsParams())
+    state = {"ball_a": np.zeros((5, 2)), "ball_b": np.tile([[0.8, 0.0]], (5, 1)), "target": np.ones((5, 2))}
+    cut = np.array([-0.9, -0.5, 0.0, 0.5, 0.9])
+    info = task.step(state, np.stack([cut, np.ones(5)], axis=-1)).info
+    aim, leave = info["strike_velocity"], info["velocity_b"]
+    sine = (aim[:, 0] * leave[:, 1] - aim[:, 1] * leave[:, 0]) / np.linalg.norm(aim, axis=-1)
+    np.testing.assert_allclose(sine / np.linalg.norm(leave, axis=-1), cut, atol=1e-12)
+    assert leave[4, 1] > 0  # positive cut: toward increasing bearing (+z here)
+    slow = task.step(state, np.array([[0.0, -1.0]] * 5))
+    assert not slow.info["contact"].any()
+    np.testing.assert_allclose(slow.info["miss_distance"], np.hypot(0.2, 1.0))
+
+
+def test_every_episode_is_reachable_and_the_speed_envelope_is_enforced() -> None:
+    p = BilliardsParams()
+    task = BilliardsTask(p)
+    keys = vegym.rng.seed_keys(np.arange(5000))
+    obs = task.observe(task.initial_state(keys)).astype(np.float64)
+    _, speed = ghost_ball_shot(
+        obs[:, 0] * p.ball_distance_max, obs[:, 1] * p.target_distance_max, np.arctan2(obs[:, 2], obs[:, 3]), p
+    )
+    assert speed.max() <= p.required_speed <= p.speed_max
+    grid = np.meshgrid(
+        np.linspace(p.ball_distance_min, p.ball_distance_max, 40),
+        np.linspace(p.target_distance_min, p.target_distance_max, 5),
+        np.linspace(-p.bearing_max, p.bearing_max, 41),
+    )
+    _, grid_speed = ghost_ball_shot(*(g.ravel() for g in grid), p)
+    assert grid_speed.max() == pytest.approx(p.required_speed, rel=1e-12)  # the worst case is at a corner
+    assert obs[:, 3].min() >= np.cos(p.bearing_max) - 1e-6
+    with pytest.raises(ValueError, match="speed_max"):
+        BilliardsParams(speed_max=2.0)
+    with pytest.raises(ValueError, match="ball_distance_min"):
+        BilliardsParams(ball_distance_min=0.05)
+    with pytest.raises(ValueError, match="speed_max"):
+        BilliardsParams(bearing_max=1.5, ball_distance_min=0.06)  # a cut of 90 degrees: no strike reaches
+    assert isinstance(controller_for(gym.make(ENV_ID)), BilliardsGhostBall)
+
+
+def test_the_ghost_ball_strike_needs_the_8_60_impact_speed() -> None:
+    p = BilliardsParams(restitution=0.5, mass_a=0.2, mass_b=0.1)
+    sine, speed = ghost_ball_shot(np.array([1.0]), np.array([0.6]), np.array([0.0]), p)
+    impact = collision.speed_after(speed, 1.0 - p.contact_distance, p.deceleration)
+    departure = collision.direct_impact(impact, 0.0, p.mass_a, p.mass_b, p.restitution)[1]
+    assert sine[0] == 0.0 and departure[0] == pytest.approx(np.sqrt(2 * p.deceleration * 0.6), rel=1e-12)

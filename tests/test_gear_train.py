@@ -1,0 +1,106 @@
+"""GearTrain-v0: the ratio law and sign alternation in the env, the targets, and the proportional baseline."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import vegym  # noqa: F401
+from agents.analytic import GearTrainProportional, controller_for
+from vegym.envs.gear_train import GearTrainParams, GearTrainTask
+from vegym.physics import wheel
+
+ENV_ID = "vegym/GearTrain-v0"
+
+
+def episodes(policy: str, n: int = 100, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Return, final success and final |error| (rad) of one full episode of each of n sub-envs."""
+    env = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point")
+    controller = controller_for(env)
+    env.action_space.seed(seed)
+    obs, _ = env.reset(seed=seed)
+    returns = np.zeros(n)
+    for _ in range(env.unwrapped.max_episode_steps):
+        action = controller.predict(obs)[0] if policy == "proportional" else env.action_space.sample()
+        obs, reward, terminated, truncated, info = env.step(action)
+        returns += reward
+    assert truncated.all() and not terminated.any()
+    return returns, info["is_success"], np.abs(info["error"])
+
+
+def test_proportional_control_through_the_ratio_holds_every_target_and_beats_random_by_far() -> None:
+    returns, success, error = episodes("proportional")
+    random_returns, random_success, _ = episodes("random")
+    assert success.all() and error.max() < 1e-6
+    assert random_success.mean() < 0.05
+    assert returns.mean() > random_returns.mean() + 3.0
+    assert isinstance(controller_for(gym.make(ENV_ID)), GearTrainProportional)
+
+
+def test_every_gear_turns_by_the_ratio_law_with_alternating_signs_and_equal_rim_speeds() -> None:
+    task = GearTrainTask(GearTrainParams())
+    n = 64
+    keys = vegym.rng.seed_keys(np.arange(n))
+    state = {**task.initial_state(keys), "key": keys, "step": np.zeros(n, np.int64)}
+    rows = np.arange(n)
+    assert set(state["gears"]) == {2, 3, 4, 5}
+    last = state["gears"] - 1
+    ratio = task.ratio(state)
+    first, final = state["radii"][:, 0], state["radii"][rows, last]
+    np.testing.assert_allclose(ratio, (-1.0) ** last * first / final, rtol=1e-15)
+    for count in (2, 3, 4, 5):
+        chains = state["gears"] == count
+        np.testing.assert_allclose(ratio[chains], wheel.train_ratio(state["radii"][chains, :count]), rtol=1e-15)
+    actions = np.random.default_rng(1).uniform(-1, 1, (40, n, 1))
+    for action in actions:
+        t = task.step(state, action)
+        turned = wheel.wrap_angle(t.state["angles"] - state["angles"]) / task.params.dt
+        np.testing.assert_allclose(turned[:, 0], t.info["input_speed"], atol=1e-12)
+        np.testing.assert_allclose(turned[:, 1:] * state["radii"][:, 1:], -turned[:, :-1] * state["radii"][:, :-1])
+        np.testing.assert_allclose(turned[rows, last], ratio * t.info["input_speed"], atol=1e-12)
+        moving = np.abs(t.info["input_speed"]) > 1e-9
+        np.testing.assert_array_equal(np.sign(turned[moving]), np.sign(turned[moving, :1]) * (-1.0) ** np.arange(5))
+        state = {**t.state, "key": keys, "step": state["step"] + 1}
+
+
+def test_the_motor_follows_its_command_within_the_acceleration_limit() -> None:
+    p = GearTrainParams()
+    task = GearTrainTask(p)
+    keys = vegym.rng.seed_keys(np.arange(3))
+    state = {**task.initial_state(keys), "key": keys, "step": np.zeros(3, np.int64)}
+    speeds = []
+    for _ in range(8):
+        t = task.step(state, np.array([[1.0], [-1.0], [0.05]]))
+        speeds.append(t.info["input_speed"])
+        state = {**t.state, "key": keys, "step": state["step"] + 1}
+    dv = p.max_acceleration * p.dt
+    np.testing.assert_allclose(np.array(speeds)[:, 0], np.minimum(dv * np.arange(1, 9), p.max_speed))
+    np.testing.assert_allclose(np.array(speeds)[:, 1], -np.minimum(dv * np.arange(1, 9), p.max_speed))
+    np.testing.assert_allclose(np.array(speeds)[:, 2], 0.05 * p.max_speed)
+
+
+def test_targets_change_every_interval_from_the_key_alone_and_the_observation_wraps_the_error() -> None:
+    p = GearTrainParams(target_interval=0.5)
+    task = GearTrainTask(p)
+    keys = vegym.rng.seed_keys(np.arange(4))
+    steps = np.arange(40)
+    targets = np.array([task.target(keys, np.full(4, k)) for k in steps])
+    changes = np.flatnonzero(np.any(np.diff(targets, axis=0) != 0, axis=1)) + 1
+    np.testing.assert_array_equal(changes, [10, 20, 30])
+    assert np.abs(targets).max() <= np.pi
+    state = {**task.initial_state(keys), "key": keys, "step": np.zeros(4, np.int64)}
+    output = task.output_angle(state)
+    obs = task.observe(state)
+    np.testing.assert_allclose(np.arctan2(obs[:, 0], obs[:, 1]), wheel.wrap_angle(targets[0] - output), atol=1e-6)
+    transition = task.step(state, np.zeros((4, 1)))
+    assert transition.info["error"] == pytest.approx(wheel.wrap_angle(targets[0] - output))
+
+
+def test_parameters_that_could_turn_the_output_half_a_turn_per_step_are_rejected() -> None:
+    with pytest.raises(ValueError, match="max_speed"):
+        GearTrainParams(max_speed=20.0)
+    with pytest.raises(ValueError, match="gears_min"):
+        GearTrainParams(gears_min=6)
+    with pytest.raises(ValueError, match="target_interval"):
+        GearTrainParams(target_interval=0.01)

@@ -1,0 +1,108 @@
+"""ProjectileAdjust-v0: the wind is hidden, one miss reveals it, and adjust-fire hits on the second shot."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import vegym  # noqa: F401
+from agents.analytic import ProjectileAdjustFire, controller_for
+from vegym.envs.projectile import ProjectileEnvParams, ProjectileTask
+from vegym.envs.projectile_adjust import ProjectileAdjustParams, ProjectileAdjustTask, wind_from_shot
+
+ENV_ID = "vegym/ProjectileAdjust-v0"
+
+
+def episodes(policy: str, n: int = 300, seed: int = 0) -> tuple[np.ndarray, np.ndarray, np.ndarray, list[dict]]:
+    """Return, success and shots fired of the first episode of each of n sub-envs, and every step's info."""
+    env = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point")
+    controller = controller_for(env)
+    env.action_space.seed(seed)
+    obs, _ = env.reset(seed=seed)
+    done, success, shots, returns, infos = np.zeros(n, bool), np.zeros(n, bool), np.zeros(n, int), np.zeros(n), []
+    while not done.all():
+        action = controller.predict(obs)[0] if policy == "adjust_fire" else env.action_space.sample()
+        obs, reward, terminated, truncated, info = env.step(action)
+        returns[~done] += reward[~done]
+        ended = (terminated | truncated) & ~done
+        success[ended], shots[ended] = info["is_success"][ended], info["shots"][ended]
+        done |= ended
+        infos.append(info)
+    return returns, success, shots, infos
+
+
+def test_adjust_fire_misses_by_wind_times_flight_time_then_hits_and_beats_random_by_far() -> None:
+    returns, success, shots, infos = episodes("adjust_fire")
+    first = infos[0]
+    _, _, (along, across) = ProjectileTask.target_frame(first)
+    wind = first["wind"]
+    drift = np.stack([np.sum(wind * along, -1), np.sum(wind * across, -1)], -1) * first["flight_time"][:, None]
+    miss = np.stack([first["miss_along"], first["miss_across"]], -1)
+    np.testing.assert_allclose(miss, drift, atol=2e-5)  # float32 observations: a few micrometres
+    assert success.mean() >= 0.99 and shots.max() <= 2
+    random_returns, random_success, random_shots, _ = episodes("random")
+    assert random_success.mean() < 0.05 and (random_shots == 3).mean() > 0.9
+    assert returns.mean() > random_returns.mean() + 2.0
+    assert isinstance(controller_for(gym.make(ENV_ID)), ProjectileAdjustFire)
+
+
+def test_the_wind_is_hidden_and_the_setup_is_projectile_v0_s() -> None:
+    p = ProjectileAdjustParams()
+    task, plain = ProjectileAdjustTask(p), ProjectileTask(ProjectileEnvParams())
+    keys = vegym.rng.seed_keys(np.arange(50))
+    state, setup = task.initial_state(keys), plain.initial_state(keys)
+    for k, v in setup.items():
+        np.testing.assert_array_equal(state[k], v)
+    calm = {**state, "wind": np.zeros_like(state["wind"])}
+    np.testing.assert_array_equal(task.observe(state), task.observe(calm))
+    action = np.tile([[0.1, 0.05, 0.8]], (50, 1))
+    windy, still = task.step(state, action), task.step(calm, action)
+    assert not np.allclose(task.observe(windy.state), task.observe(still.state))
+
+
+def test_one_miss_of_any_shot_gives_the_wind_exactly() -> None:
+    p = ProjectileAdjustParams()
+    task = ProjectileAdjustTask(p)
+    n = 200
+    keys = vegym.rng.seed_keys(np.arange(n))
+    state = {**task.initial_state(keys), "key": keys, "step": np.zeros(n, np.int64)}
+    action = np.random.default_rng(2).uniform(-1, 1, (n, 3)).astype(np.float32).astype(np.float64)
+    action[:, 0] = np.abs(action[:, 0])  # upward shots: every flight time is long enough to divide by
+    info = task.step(state, action).info
+    distance, _, (along, across) = ProjectileTask.target_frame(state)
+    miss = np.stack([info["miss_along"], info["miss_across"]], axis=-1)
+    wind = wind_from_shot(distance, state["launch_position"][:, 1], miss, action, p)
+    expected = np.stack([np.sum(state["wind"] * along, -1), np.zeros(n), np.sum(state["wind"] * across, -1)], -1)
+    np.testing.assert_allclose(wind, expected, atol=1e-9)
+
+
+def test_the_observation_lists_the_newest_shots_first_and_the_episode_ends_on_a_hit_or_after_max_shots() -> None:
+    p = ProjectileAdjustParams(max_shots=4)
+    task = ProjectileAdjustTask(p)
+    assert task.observation_space.shape == (3 + 6 * 3,)
+    keys = vegym.rng.seed_keys(np.arange(2))
+    state = {**task.initial_state(keys), "key": keys, "step": np.zeros(2, np.int64)}
+    obs = task.observe(state)
+    np.testing.assert_array_equal(obs[:, 2:], 0.0)
+    actions = [np.array([[0.2, 0.1, 0.5], [0.5, 1.0, 1.0]]), np.array([[0.3, -0.1, 0.4], [0.5, 1.0, 1.0]])]
+    for k, action in enumerate(actions):
+        t = task.step(state, action)
+        state = {**t.state, "key": keys, "step": state["step"] + 1}
+        obs = task.observe(state)
+        np.testing.assert_allclose(obs[:, 2], (k + 1) / 4)
+        np.testing.assert_array_equal(obs[:, 3:].reshape(2, 3, 6)[:, :, 0], [[1.0] * (k + 1) + [0.0] * (2 - k)] * 2)
+        np.testing.assert_allclose(obs[:, 6:9], action, rtol=1e-7)  # the newest shot's actions
+        miss = np.stack([t.info["miss_along"], t.info["miss_across"]], -1) / p.miss_scale
+        np.testing.assert_allclose(obs[:, 4:6], np.clip(miss, -1, 1), rtol=1e-6, atol=1e-7)
+        assert not t.terminated.any()
+    np.testing.assert_allclose(obs[:, 12:15], actions[0], rtol=1e-7)  # the older one moved down a slot
+    assert obs[1, 5] == 1.0  # 45 degrees up, square to the line of fire: ~90 m off, beyond miss_scale, clipped
+    for _ in range(2):
+        t = task.step(state, actions[1])
+        state = {**t.state, "key": keys, "step": state["step"] + 1}
+    assert t.terminated.all() and task.observation_space.contains(task.observe(state)[0])
+    with pytest.raises(ValueError, match="wind_speed_max"):
+        ProjectileAdjustParams(wind_speed_max=0.0)
+    with pytest.raises(ValueError, match="max_shots"):
+        ProjectileAdjustParams(max_shots=1)

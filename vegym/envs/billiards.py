@@ -1,0 +1,268 @@
+"""Billiards-v0: strike ball A into ball B at rest so that B slides to rest on a target (oblique impact, 8.3)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from gymnasium import spaces
+
+from vegym import rng
+from vegym.envs.base import State, Task, Transition, VegymEnv, VegymVectorEnv
+from vegym.params import Params, invalid, param
+from vegym.physics import collision
+
+_SETUP_STREAM = 1
+
+
+@dataclass(frozen=True)
+class BilliardsParams(Params):
+    """Parameters of Billiards-v0 (SI units, radians; positions on the table plane as (x, z))."""
+
+    mass_a: float = param(0.17, "mass of ball A, the one struck by the agent (kg)", low=0.0, low_open=True)
+    mass_b: float = param(0.17, "mass of ball B, the object ball, at rest (kg)", low=0.0, low_open=True)
+    radius_a: float = param(0.028575, "radius of ball A (m)", low=0.0, low_open=True)
+    radius_b: float = param(0.028575, "radius of ball B (m)", low=0.0, low_open=True)
+    restitution: float = param(0.95, "coefficient of restitution e of the impact", low=0.0, high=1.0)
+    deceleration: float = param(
+        0.3, "rolling resistance of the cloth: constant deceleration of a moving ball (m/s^2)", low=0.0, low_open=True
+    )
+    ball_distance_min: float = param(0.3, "nearest start of B from A, centre to centre (m)", low=0.0, low_open=True)
+    ball_distance_max: float = param(1.2, "farthest start of B from A, centre to centre (m)", low=0.0, low_open=True)
+    target_distance_min: float = param(0.3, "nearest target from B's centre (m)", low=0.0, low_open=True)
+    target_distance_max: float = param(1.2, "farthest target from B's centre (m)", low=0.0, low_open=True)
+    bearing_max: float = param(
+        1.0, "largest angle between the line A-B and the direction from B to the target (rad)", low=0.0, high=1.5
+    )
+    target_radius: float = param(0.08, "B resting within this distance of the target's centre is a hit (m)", low=0.0)
+    speed_max: float = param(3.0, "fastest strike of A (m/s)", low=0.0, low_open=True)
+    hit_bonus: float = param(1.0, "reward added for a hit", low=0.0)
+
+    def validate(self) -> None:
+        if not self.ball_distance_min > self.contact_distance:
+            raise invalid(
+                "ball_distance_min", self.ball_distance_min, f"(radius_a + radius_b = {self.contact_distance:g}, inf)"
+            )
+        if self.ball_distance_min > self.ball_distance_max:
+            raise invalid(
+                "ball_distance_min", self.ball_distance_min, f"(0, ball_distance_max={self.ball_distance_max}]"
+            )
+        if self.target_distance_min > self.target_distance_max:
+            raise invalid(
+                "target_distance_min", self.target_distance_min, f"(0, target_distance_max={self.target_distance_max}]"
+            )
+        if not self.required_speed <= self.speed_max:
+            raise invalid("speed_max", self.speed_max, f"[required_speed={self.required_speed:.4g}, inf)")
+
+    @property
+    def contact_distance(self) -> float:
+        """``R = r_a + r_b`` (m): the balls touch when their centres are this far apart."""
+        return self.radius_a + self.radius_b
+
+    @property
+    def required_speed(self) -> float:
+        """Fastest strike (m/s) the ghost-ball shot of any episode needs (``inf`` if a cut reaches 90 degrees).
+
+        The squared speed grows with the bearing and the target distance and is convex in the ball distance (it
+        is ``1 / cos^2`` of a cut angle convex in it, plus the path length, also convex), so the worst case is at
+        the largest bearing and target distance and at one end of the ball-distance range.
+        """
+        distances = np.array([self.ball_distance_min, self.ball_distance_max])
+        bearing = np.full(2, self.bearing_max)
+        _, speed = ghost_ball_shot(distances, np.full(2, self.target_distance_max), bearing, self)
+        return float(np.max(speed))
+
+
+def ghost_ball_shot(
+    ball_distance: np.ndarray, target_distance: np.ndarray, bearing: np.ndarray, params: BilliardsParams
+) -> tuple[np.ndarray, np.ndarray]:
+    """The ghost-ball strike (PHYSICS.md section 5): cut sine (n,) and strike speed (m/s, (n,)).
+
+    In the frame of the line A-B (A at the origin, B at ``(D_ab, 0)``) the target lies ``target_distance`` from B
+    at ``bearing``, so B must leave along ``d* = (cos, sin)(bearing)`` at the speed ``u_b = sqrt(2 a D)`` that
+    slides it exactly there. A aims at the ghost point ``G = c_b - R d*``, a path of length ``|G|``, and meets B
+    at the cut angle ``phi`` between its path and ``d*``; the line-of-centres part of the impact (8.60) then asks
+    for ``v_impact = u_b (m_a + m_b) / ((1 + e) m_a cos(phi))``, and the cloth for the strike speed
+    ``sqrt(v_impact^2 + 2 a |G|)``. Non-finite speed where ``phi`` reaches 90 degrees.
+    """
+    p = params
+    d = np.asarray(ball_distance, dtype=np.float64)
+    direction = np.stack([np.cos(bearing), np.sin(bearing)], axis=-1)
+    ghost = collision.ghost_point(np.stack([d, np.zeros_like(d)], axis=-1), direction, p.contact_distance)
+    path = np.linalg.norm(ghost, axis=-1)
+    aim = ghost / path[:, None]
+    cos_cut = np.einsum("ij,ij->i", aim, direction)
+    sin_cut = aim[:, 0] * direction[:, 1] - aim[:, 1] * direction[:, 0]
+    rebound = np.sqrt(2.0 * p.deceleration * np.asarray(target_distance, dtype=np.float64))
+    with np.errstate(divide="ignore"):
+        impact = rebound * (p.mass_a + p.mass_b) / ((1.0 + p.restitution) * p.mass_a * cos_cut)
+    speed = np.where(cos_cut > 0.0, collision.launch_speed(impact, path, p.deceleration), np.inf)
+    return sin_cut, speed
+
+
+class BilliardsTask(Task[BilliardsParams]):
+    """Batched logic of Billiards-v0 (see :class:`BilliardsEnv`)."""
+
+    params_cls = BilliardsParams
+    renderer = "vegym.render.billiards:BilliardsRenderer"
+
+    def __init__(self, params: BilliardsParams) -> None:
+        super().__init__(params)
+        self.observation_space = spaces.Box(
+            np.array([0, 0, -1, 0], np.float32), np.array([1, 1, 1, 1], np.float32), dtype=np.float32
+        )
+        self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
+
+    @property
+    def control_rate(self) -> float:
+        return 1.0
+
+    def initial_state(self, keys: np.ndarray) -> State:
+        p = self.params
+        u = rng.uniform(keys, _SETUP_STREAM, 4)
+        distance = p.ball_distance_min + (p.ball_distance_max - p.ball_distance_min) * u[:, 0]
+        line = np.pi * (2.0 * u[:, 1] - 1.0)
+        target_distance = p.target_distance_min + (p.target_distance_max - p.target_distance_min) * u[:, 2]
+        leave = line + p.bearing_max * (2.0 * u[:, 3] - 1.0)
+        ball_b = distance[:, None] * np.stack([np.cos(line), np.sin(line)], axis=-1)
+        return {
+            "ball_a": np.zeros((len(keys), 2)),
+            "ball_b": ball_b,
+            "target": ball_b + target_distance[:, None] * np.stack([np.cos(leave), np.sin(leave)], axis=-1),
+        }
+
+    @staticmethod
+    def line_frame(state: State) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Distance A-B (n,) and unit vectors (n, 2) along the line A-B and across it (toward increasing bearing).
+
+        Bearings are measured on the table plane (x, z) from +x toward +z, as the projectile's azimuth.
+        """
+        offset = state["ball_b"] - state["ball_a"]
+        distance = np.linalg.norm(offset, axis=-1)
+        along = offset / distance[:, None]
+        return distance, along, np.stack([-along[:, 1], along[:, 0]], axis=-1)
+
+    def step(self, state: State, action: np.ndarray) -> Transition:
+        p = self.params
+        a_start, b_start, target = state["ball_a"], state["ball_b"], state["target"]
+        distance, along, across = self.line_frame(state)
+        offset = action[:, 0] * p.contact_distance
+        turn = -np.arcsin(offset / distance)
+        aim = np.cos(turn)[:, None] * along + np.sin(turn)[:, None] * across
+        speed = 0.5 * (action[:, 1] + 1.0) * p.speed_max
+        stop = speed * speed / (2.0 * p.deceleration)
+        travel = collision.first_contact(a_start, aim, b_start, p.contact_distance)
+        contact = travel <= stop
+        travel = np.where(contact, travel, stop)
+        impact_speed = np.where(contact, collision.speed_after(speed, travel, p.deceleration), 0.0)
+        contact_point = a_start + travel[:, None] * aim
+        normal = (b_start - contact_point) / p.contact_distance
+        closing = impact_speed * np.einsum("ij,ij->i", aim, normal)
+        after_a, after_b = collision.oblique_impact(
+            contact_point, b_start, impact_speed[:, None] * aim, np.zeros_like(aim), p.mass_a, p.mass_b, p.restitution
+        )
+        rest_a, _, time_a = collision.slide(contact_point, after_a, p.deceleration)
+        rest_b, _, time_b = collision.slide(b_start, after_b, p.deceleration)
+        to_contact = (speed - impact_speed) / p.deceleration
+        miss = np.linalg.norm(rest_b - target, axis=-1)
+        hit = miss <= p.target_radius
+        miss_term = -miss / p.target_distance_max
+        hit_term = np.where(hit, p.hit_bonus, 0.0)
+        info = {
+            "ball_a": a_start,
+            "ball_b": b_start,
+            "target": target,
+            "strike_velocity": speed[:, None] * aim,
+            "contact": contact,
+            "contact_point": contact_point,
+            "closing_speed": closing,
+            "velocity_a": after_a,
+            "velocity_b": after_b,
+            "energy_lost": collision.energy_loss(closing, p.mass_a, p.mass_b, p.restitution),
+            "rest_a": rest_a,
+            "rest_b": rest_b,
+            "duration": to_contact + np.maximum(time_a, time_b),
+            "miss_distance": miss,
+            "reward_terms": {"miss": miss_term, "hit": hit_term},
+            "is_success": hit,
+        }
+        return Transition(dict(state), miss_term + hit_term, np.ones(len(miss), dtype=bool), info)
+
+    def observe(self, state: State) -> np.ndarray:
+        p = self.params
+        distance, along, across = self.line_frame(state)
+        to_target = state["target"] - state["ball_b"]
+        target_distance = np.linalg.norm(to_target, axis=-1)
+        return np.stack(
+            [
+                distance / p.ball_distance_max,
+                target_distance / p.target_distance_max,
+                np.einsum("ij,ij->i", to_target, across) / target_distance,
+                np.einsum("ij,ij->i", to_target, along) / target_distance,
+            ],
+            axis=-1,
+        ).astype(np.float32)
+
+
+class BilliardsEnv(VegymEnv[BilliardsParams]):
+    """Oblique impact: strike ball A so that it knocks ball B, at rest, to slide to rest on a target.
+
+    ## Description
+    The oblique impact of two spheres of the chapter (8.47-8.62, corrected and in vector form as in PHYSICS.md
+    section 5): at contact the line of centres ``n`` carries the impulse ``J = (1 + e) mu w`` (``w`` the closing
+    speed, ``mu`` the reduced mass), the tangential components are unchanged, so B, at rest, leaves along ``n``
+    at ``u_b = (1 + e) m_a w / (m_a + m_b)`` (8.60) and A is deflected (8.61). The table adds one thing to the
+    chapter: each ball slides in a straight line with the constant deceleration ``deceleration`` (the cloth's
+    rolling resistance), so a ball at speed v stops ``v^2 / (2 a)`` further on. A starts at the origin and B at
+    a random distance and bearing; the target lies at a random distance from B within ``bearing_max`` of the
+    line A-B (a cut of at most that much). One step is one strike; the balls meet at most once (a second
+    contact after the impact is not modelled) and there are no cushions.
+
+    ## Action Space
+    ``Box(-1, 1, (2,), float32)``: ``a0`` is the sine of the cut angle, i.e. the offset of B's centre from A's
+    path in units of ``radius_a + radius_b`` (0: full ball, +-1: grazing); B then departs at ``asin(a0)`` from
+    A's direction, toward increasing bearing for ``a0 > 0``, and A is aimed ``-asin(a0 R / D_ab)`` off the line
+    A-B. ``a1`` is the strike speed ``(a1 + 1)/2 * speed_max``. A strike too slow to reach B leaves B in place.
+
+    ## Observation Space
+    ``Box([0, 0, -1, 0], 1, (4,), float32)`` in the frame of the line A-B: the distance A-B over
+    ``ball_distance_max``, the distance from B to the target over ``target_distance_max``, and the sine and
+    cosine of the target's bearing from B relative to the line A-B (the cosine is at least
+    ``cos(bearing_max) >= 0``).
+
+    ## Rewards
+    ``-miss / target_distance_max`` (term ``miss``), ``miss`` the distance from B's rest point to the target's
+    centre, plus ``hit_bonus`` if ``miss <= target_radius`` (term ``hit``).
+
+    ## Starting State
+    Distance A-B uniform in ``[ball_distance_min, ball_distance_max]`` at a uniform bearing; target distance
+    from B uniform in ``[target_distance_min, target_distance_max]`` at a bearing uniform within
+    ``bearing_max`` of the line A-B. Every target is reachable: ``speed_max`` must be at least
+    ``required_speed``, the fastest ghost-ball strike any episode needs (2.30 m/s with the defaults).
+
+    ## Episode End
+    Terminated after the strike (one step). ``info["is_success"]``: B rests within ``target_radius`` of the
+    target.
+
+    ## Arguments
+    ``gymnasium.make("vegym/Billiards-v0", render_mode=None, **params)`` with the fields of
+    :class:`BilliardsParams`. ``info`` (SI, vectors (x, z) on the table): ``ball_a``, ``ball_b``, ``target``
+    (start positions), ``strike_velocity``, ``contact`` (A reached B), ``contact_point`` (A's centre at the
+    impact; where it stopped without contact), ``closing_speed`` (``w``, 0 without contact), ``velocity_a``,
+    ``velocity_b`` (just after the impact), ``energy_lost`` (``1/2 mu (1 - e^2) w^2``, J), ``rest_a``,
+    ``rest_b``, ``duration`` (strike to both balls at rest, s), ``miss_distance``, ``reward_terms``,
+    ``is_success``.
+    Reference controller: the ghost-ball aim with the strike speed from 8.60 and the cloth
+    (:func:`ghost_ball_shot`, ``agents.analytic``).
+
+    ## Version History
+    * v0: initial version.
+    """
+
+    task_cls = BilliardsTask
+
+
+class BilliardsVectorEnv(VegymVectorEnv[BilliardsParams]):
+    """Native vector twin of :class:`BilliardsEnv` (same task code, NEXT_STEP autoreset)."""
+
+    task_cls = BilliardsTask

@@ -1,0 +1,194 @@
+"""GearTrain-v0: drive the input gear of a chain of external gears so the output gear holds a target angle."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from gymnasium import spaces
+
+from vegym import rng
+from vegym.envs.base import State, Task, Transition, VegymEnv, VegymVectorEnv
+from vegym.params import Params, invalid, param
+from vegym.physics import wheel
+
+_SETUP_STREAM = 1
+_TARGET_STREAM = 2
+
+
+@dataclass(frozen=True)
+class GearTrainParams(Params):
+    """Parameters of GearTrain-v0 (SI units, radians; angles anticlockwise, seen from the front of the train)."""
+
+    dt: float = param(0.05, "control step (s); the motor speed is held over it", low=0.0, low_open=True, high=1.0)
+    gears_min: int = param(2, "fewest gears in the chain (input and output included)", low=2, high=8)
+    gears_max: int = param(5, "most gears in the chain", low=2, high=8)
+    radius_min: float = param(0.02, "smallest pitch radius (m)", low=0.0, low_open=True)
+    radius_max: float = param(0.08, "largest pitch radius (m)", low=0.0, low_open=True)
+    max_speed: float = param(10.0, "top speed of the motor driving the input gear (rad/s)", low=0.0, low_open=True)
+    max_acceleration: float = param(
+        40.0, "largest change of the motor speed per second, toward the command (rad/s^2)", low=0.0, low_open=True
+    )
+    target_interval: float = param(5.0, "a new target angle every this many seconds (s)", low=0.0, low_open=True)
+    tolerance: float = param(0.02, "is_success: the output within this angle of the target (rad)", low=0.0)
+    tracking_weight: float = param(1.0, "cost per second of an output error of pi rad (linear in the error)", low=0.0)
+    effort_weight: float = param(0.01, "cost per second of a full-speed motor command (quadratic)", low=0.0)
+
+    def validate(self) -> None:
+        if self.gears_min > self.gears_max:
+            raise invalid("gears_min", self.gears_min, f"[2, gears_max={self.gears_max}]")
+        if self.radius_min > self.radius_max:
+            raise invalid("radius_min", self.radius_min, f"(0, radius_max={self.radius_max}]")
+        if self.target_interval < self.dt:
+            raise invalid("target_interval", self.target_interval, f"[dt={self.dt}, inf)")
+        if not self.ratio_max * self.max_speed * self.dt < np.pi:
+            raise invalid(
+                "max_speed",
+                self.max_speed,
+                f"(0, pi / (dt * radius_max / radius_min) = {np.pi / (self.dt * self.ratio_max):.4g})",
+            )
+
+    @property
+    def ratio_max(self) -> float:
+        """Largest ``|omega_out / omega_in| = r_1 / r_n`` of a drawn train: ``radius_max / radius_min``."""
+        return self.radius_max / self.radius_min
+
+    @property
+    def interval_steps(self) -> int:
+        """Steps between target changes: ``round(target_interval / dt)``, at least 1."""
+        return max(1, round(self.target_interval / self.dt))
+
+
+class GearTrainTask(Task[GearTrainParams]):
+    """Batched logic of GearTrain-v0 (see :class:`GearTrainEnv`)."""
+
+    params_cls = GearTrainParams
+    renderer = "vegym.render.gear_train:GearTrainRenderer"
+
+    def __init__(self, params: GearTrainParams) -> None:
+        super().__init__(params)
+        self.observation_space = spaces.Box(-1.0, 1.0, (4,), np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
+
+    @property
+    def control_rate(self) -> float:
+        return 1.0 / self.params.dt
+
+    def target(self, keys: np.ndarray, step: np.ndarray) -> np.ndarray:
+        """Target output angle (n,) in force during step ``step`` (n,): a fresh uniform draw in [-pi, pi) every
+        ``interval_steps`` steps, a pure function of the episode key."""
+        period = np.asarray(step) // self.params.interval_steps
+        return np.pi * (2.0 * rng.uniform(keys, _TARGET_STREAM, 1, counter=period)[:, 0] - 1.0)
+
+    def initial_state(self, keys: np.ndarray) -> State:
+        p = self.params
+        n, g = len(keys), p.gears_max
+        u = rng.uniform(keys, _SETUP_STREAM, 1 + 2 * g)
+        gears = np.minimum(p.gears_min + np.floor(u[:, 0] * (p.gears_max - p.gears_min + 1)), p.gears_max)
+        return {
+            "gears": gears.astype(np.int64),
+            "radii": p.radius_min + (p.radius_max - p.radius_min) * u[:, 1 : 1 + g],
+            "angles": np.pi * (2.0 * u[:, 1 + g :] - 1.0),
+            "speed": np.zeros(n),
+        }
+
+    @staticmethod
+    def ratio(state: State) -> np.ndarray:
+        """``omega_out / omega_in = (-1)^(n-1) r_1 / r_n`` (n,) of each episode's train of its first ``gears`` gears."""
+        speeds = wheel.train_speeds(np.ones(len(state["gears"])), state["radii"])
+        return speeds[np.arange(len(speeds)), state["gears"] - 1]
+
+    @staticmethod
+    def output_angle(state: State) -> np.ndarray:
+        """Angle (n,) of the output (last) gear, in [-pi, pi]."""
+        return state["angles"][np.arange(len(state["gears"])), state["gears"] - 1]
+
+    def step(self, state: State, action: np.ndarray) -> Transition:
+        p = self.params
+        n = len(action)
+        dv = p.max_acceleration * p.dt
+        speed = np.clip(p.max_speed * action[:, 0], state["speed"] - dv, state["speed"] + dv)
+        speeds = wheel.train_speeds(speed, state["radii"])
+        angles = wheel.wrap_angle(state["angles"] + speeds * p.dt)
+        new_state = {**state, "angles": angles, "speed": speed}
+        output = self.output_angle(new_state)
+        target = self.target(state["key"], state["step"])
+        error = wheel.wrap_angle(target - output)
+        terms = {
+            "tracking": -p.tracking_weight * p.dt * np.abs(error) / np.pi,
+            "effort": -p.effort_weight * p.dt * action[:, 0] ** 2,
+        }
+        info = {
+            "input_speed": speed,
+            "output_speed": speeds[np.arange(n), state["gears"] - 1],
+            "output_angle": output,
+            "target_angle": target,
+            "error": error,
+            "ratio": self.ratio(state),
+            "gears": state["gears"],
+            "dt": np.full(n, p.dt),
+            "reward_terms": terms,
+            "is_success": np.abs(error) <= p.tolerance,
+        }
+        return Transition(new_state, terms["tracking"] + terms["effort"], np.zeros(n, dtype=bool), info)
+
+    def observe(self, state: State) -> np.ndarray:
+        p = self.params
+        error = self.target(state["key"], state["step"]) - self.output_angle(state)
+        return np.stack(
+            [np.sin(error), np.cos(error), state["speed"] / p.max_speed, self.ratio(state) / p.ratio_max], axis=-1
+        ).astype(np.float32)
+
+
+class GearTrainEnv(VegymEnv[GearTrainParams]):
+    """Gear positioning: drive the input gear of a chain of external gears so that the output gear holds a target.
+
+    ## Description
+    The gear train of the chapter (8.19-8.20, corrected as in PHYSICS.md section 2): meshing gears share their rim
+    speed, ``omega_a r_a = -omega_b r_b``, so along a chain of n external gears the speeds alternate in sign and
+    ``omega_n / omega_1 = (-1)^(n-1) r_1 / r_n`` (the idlers cancel). Each episode draws a chain of ``gears_min``
+    to ``gears_max`` gears with pitch radii uniform in ``[radius_min, radius_max]`` and random starting angles. A
+    motor drives gear 1: its speed follows the command at up to ``max_acceleration`` and is held over each step
+    of ``dt``, and every gear turns by ``omega_i dt``. The output gear must reach and hold a target angle that is
+    redrawn every ``target_interval`` seconds.
+
+    ## Action Space
+    ``Box(-1, 1, (1,), float32)``: the motor speed command ``a0 * max_speed`` (rad/s, positive anticlockwise).
+    The speed a step applies is the previous speed moved toward the command by at most ``max_acceleration * dt``.
+
+    ## Observation Space
+    ``Box(-1, 1, (4,), float32)``: the sine and cosine of the output error ``target - output angle`` (no jump
+    at +-pi), the motor speed over ``max_speed``, and the train's ratio ``omega_out / omega_in`` (its sign tells
+    the direction the output turns) over ``ratio_max = radius_max / radius_min``.
+
+    ## Rewards
+    ``tracking``: ``-tracking_weight * dt * |error| / pi`` with the wrapped error after the step (against the
+    target in force during it); ``effort``: ``-effort_weight * dt * a0^2``.
+
+    ## Starting State
+    Gear count uniform in ``[gears_min, gears_max]``, radii uniform in ``[radius_min, radius_max]``, angles
+    uniform in [-pi, pi), motor at rest; the targets are uniform in [-pi, pi). All drawn from the episode seed.
+
+    ## Episode End
+    Never terminated; truncated after ``max_episode_steps`` (200, i.e. 10 s at the default dt: two targets, when
+    registered). ``info["is_success"]``: the output is within ``tolerance`` of the target at this step.
+
+    ## Arguments
+    ``gymnasium.make("vegym/GearTrain-v0", render_mode=None, **params)`` with the fields of
+    :class:`GearTrainParams`. ``info`` per step (SI units, radians): ``input_speed`` and ``output_speed`` (rad/s,
+    applied this step), ``output_angle`` (in [-pi, pi]), ``target_angle``, ``error`` (wrapped, in [-pi, pi]),
+    ``ratio``, ``gears``, ``dt``, ``reward_terms``, ``is_success``. Reference controller: saturated proportional
+    control through the ratio, ``omega_in = sat(k error, +-max_speed |ratio|) / ratio`` (``agents.analytic``).
+    ``max_speed * dt * ratio_max`` must stay below pi, so that one step never turns the output by half a turn.
+
+    ## Version History
+    * v0: initial version.
+    """
+
+    task_cls = GearTrainTask
+
+
+class GearTrainVectorEnv(VegymVectorEnv[GearTrainParams]):
+    """Native vector twin of :class:`GearTrainEnv` (same task code, NEXT_STEP autoreset)."""
+
+    task_cls = GearTrainTask

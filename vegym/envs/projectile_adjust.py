@@ -1,0 +1,194 @@
+"""ProjectileAdjust-v0: Projectile-v0 with the wind hidden; up to ``max_shots`` shots, correcting from the misses."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from gymnasium import spaces
+
+from vegym.envs.base import State, Task, Transition, VegymEnv, VegymVectorEnv
+from vegym.envs.projectile import AZIMUTH_LIMIT, ELEVATION_LIMIT, ProjectileEnvParams, ProjectileTask
+from vegym.params import invalid, param
+from vegym.physics import projectile
+
+SHOT_FIELDS = 6
+"""Observation entries per remembered shot: fired flag, miss along and across, and the shot's three actions."""
+
+
+@dataclass(frozen=True)
+class ProjectileAdjustParams(ProjectileEnvParams):
+    """Parameters of ProjectileAdjust-v0: those of Projectile-v0 and the number of shots."""
+
+    max_shots: int = param(
+        3, "shots per episode at the same target (the episode ends earlier on a hit)", low=2, high=16
+    )
+
+    def validate(self) -> None:
+        super().validate()
+        if self.wind_speed_max <= 0.0:
+            raise invalid("wind_speed_max", self.wind_speed_max, f"(0, speed_max={self.speed_max})")
+
+    @property
+    def memory(self) -> int:
+        """Shots shown in the observation: ``max_shots - 1``, the most recent first."""
+        return self.max_shots - 1
+
+    @property
+    def longest_flight(self) -> float:
+        """Longest flight time (s) of any shot: straight up at ``speed_max`` from ``launch_height_max``."""
+        g = self.gravity
+        return float(
+            (self.speed_max + np.sqrt(self.speed_max**2 + 2.0 * g * (self.launch_height_max - self.radius))) / g
+        )
+
+    @property
+    def miss_scale(self) -> float:
+        """Normaliser of the observed misses (m): ``wind_speed_max * longest_flight``.
+
+        The largest miss of a shot aimed by a wind-free solution that would hit (its miss is ``w T``); larger misses
+        are clipped to it in the observation.
+        """
+        return self.wind_speed_max * self.longest_flight
+
+
+class ProjectileAdjustTask(Task[ProjectileAdjustParams]):
+    """Batched logic of ProjectileAdjust-v0 (see :class:`ProjectileAdjustEnv`); each shot is a Projectile-v0 step."""
+
+    params_cls = ProjectileAdjustParams
+    renderer = "vegym.render.projectile_adjust:ProjectileAdjustRenderer"
+
+    def __init__(self, params: ProjectileAdjustParams) -> None:
+        super().__init__(params)
+        self.shot = ProjectileTask(params)
+        slot_low = [0.0] + [-1.0] * (SHOT_FIELDS - 1)
+        low = np.array([0.0, 0.0, 0.0, *slot_low * params.memory], np.float32)
+        self.observation_space = spaces.Box(low, np.ones_like(low), dtype=np.float32)
+        self.action_space = self.shot.action_space
+
+    @property
+    def control_rate(self) -> float:
+        return 1.0
+
+    def initial_state(self, keys: np.ndarray) -> State:
+        n, memory = len(keys), self.params.memory
+        return {
+            **self.shot.initial_state(keys),
+            "misses": np.zeros((n, memory, 2)),
+            "actions": np.zeros((n, memory, 3)),
+            "shots": np.zeros(n, dtype=np.int64),
+        }
+
+    def step(self, state: State, action: np.ndarray) -> Transition:
+        transition = self.shot.step(state, action)
+        info = transition.info
+        _, _, (along, across) = ProjectileTask.target_frame(state)
+        miss = info["landing_point"] - state["target"]
+        miss_frame = np.stack([np.einsum("ij,ij->i", miss, along), np.einsum("ij,ij->i", miss, across)], axis=-1)
+        shots = state["shots"] + 1
+        new_state = {
+            **transition.state,
+            "misses": np.concatenate([miss_frame[:, None], state["misses"][:, :-1]], axis=1),
+            "actions": np.concatenate([action[:, None], state["actions"][:, :-1]], axis=1),
+            "shots": shots,
+        }
+        terminated = info["is_success"] | (shots >= self.params.max_shots)
+        info = {**info, "miss_along": miss_frame[:, 0], "miss_across": miss_frame[:, 1], "shots": shots}
+        return Transition(new_state, transition.reward, terminated, info)
+
+    def observe(self, state: State) -> np.ndarray:
+        p = self.params
+        n, memory = len(state["shots"]), p.memory
+        distance, _, _ = ProjectileTask.target_frame(state)
+        fired = (np.arange(memory) < state["shots"][:, None]).astype(np.float64)
+        slots = np.concatenate(
+            [fired[..., None], np.clip(state["misses"] / p.miss_scale, -1.0, 1.0), state["actions"]], axis=-1
+        )
+        head = [
+            distance / p.target_distance_max,
+            state["launch_position"][:, 1] / p.height_scale,
+            state["shots"] / p.max_shots,
+        ]
+        return np.concatenate([np.stack(head, axis=-1), slots.reshape(n, memory * SHOT_FIELDS)], axis=-1).astype(
+            np.float32
+        )
+
+
+def wind_from_shot(
+    distance: np.ndarray, height: np.ndarray, miss: np.ndarray, action: np.ndarray, params: ProjectileAdjustParams
+) -> np.ndarray:
+    """The horizontal wind (n, 3) in the target frame (along, 0, across) that explains a shot's miss exactly.
+
+    The wind is a drift, ``p(t) = p0 + (v0 + w) t + 1/2 g_vec t^2``, and with ``w_y = 0`` the flight time T does
+    not depend on it; so the landing point is the wind-free one plus ``w T``, and
+    ``w = (target + miss - p0 - v0_h T) / T``. For a shot aimed by a wind-free solution that would hit, this
+    is the chapter's adjust-fire rule: the miss is the wind times the flight time. ``distance`` and ``height``
+    (m) place the target at ``(distance, radius - height, 0)`` from the launcher; ``miss`` (n, 2) is the
+    landing point minus the target (along, across); ``action`` (n, 3) is the shot's action.
+    """
+    p = params
+    elevation = ELEVATION_LIMIT * action[:, 0]
+    azimuth = AZIMUTH_LIMIT * action[:, 1]
+    speed = p.speed_min + 0.5 * (action[:, 2] + 1.0) * (p.speed_max - p.speed_min)
+    velocity = projectile.launch_velocity(elevation, azimuth, speed)
+    zeros = np.zeros(len(distance))
+    launch = np.stack([zeros, height, zeros], axis=-1)
+    flight_time = projectile.impact_time(launch, velocity, np.zeros(3), p.physics)
+    drift = np.stack([distance + miss[:, 0], zeros, miss[:, 1]], axis=-1) - velocity * flight_time[:, None]
+    drift[:, 1] = 0.0
+    return drift / flight_time[:, None]
+
+
+class ProjectileAdjustEnv(VegymEnv[ProjectileAdjustParams]):
+    """Adjust-fire: hit a ground target in a hidden wind, correcting each shot from where the previous ones landed.
+
+    ## Description
+    The projectile of Projectile-v0 (8.63-8.71 with the wind drift completed, PHYSICS.md section 6), with the
+    same launcher, target, wind and shot physics (each step runs :class:`~vegym.envs.projectile.ProjectileTask`),
+    but the wind is not observed. The agent fires up to ``max_shots`` shots at the same target and sees where
+    each landed. Since ``w_y = 0`` the wind does not change the flight time T, and it moves every landing point
+    by exactly ``w T``: one miss of a known shot reveals the wind.
+
+    ## Action Space
+    As Projectile-v0: ``Box(-1, 1, (3,), float32)``, elevation ``a0 * pi/2``, azimuth ``a1 * pi/2`` relative to
+    the target's bearing, speed ``speed_min + (a2 + 1)/2 * (speed_max - speed_min)`` relative to the air.
+
+    ## Observation Space
+    ``Box(low, 1, (3 + 6 (max_shots - 1),), float32)``: the target distance over ``target_distance_max`` and
+    the launch height over ``max(launch_height_max, 1 m)`` (as Projectile-v0), the shots fired over
+    ``max_shots``; then, for the ``max_shots - 1`` most recent shots, newest first: a fired flag (0 for an empty
+    slot, whose other entries are 0), the landing point minus the target along and across the line of fire
+    over ``miss_scale = wind_speed_max * longest_flight`` (clipped to [-1, 1]: only wild shots miss by more), and
+    the shot's three actions. ``low`` is 0 for the first three entries and the flags, -1 elsewhere.
+
+    ## Rewards
+    Per shot as Projectile-v0: ``-miss / target_distance_max`` (term ``miss``) plus ``hit_bonus`` for a
+    landing within ``hit_radius`` of the target (term ``hit``); a hit ends the episode, so early hits pay.
+
+    ## Starting State
+    As Projectile-v0 (the same draws: the same seed gives the same launcher, target and wind), with no shot
+    fired. ``wind_speed_max`` must be positive.
+
+    ## Episode End
+    Terminated on a hit (``info["is_success"]``) or after ``max_shots`` shots. Registered with
+    ``max_episode_steps = 16``, the largest allowed ``max_shots``, so the time limit never cuts an episode short.
+
+    ## Arguments
+    ``gymnasium.make("vegym/ProjectileAdjust-v0", render_mode=None, **params)`` with the fields of
+    :class:`ProjectileAdjustParams`. ``info``: that of Projectile-v0 (``launch_position``, ``launch_velocity``,
+    ``wind`` (the hidden wind, for analysis only), ``gravity``, ``landing_point``, ``flight_time``, ``target``,
+    ``miss_distance``, ``reward_terms``, ``is_success``), plus ``miss_along``, ``miss_across`` (m, target frame)
+    and ``shots`` (fired so far). Reference controller: fire the wind-free firing solution, estimate the wind
+    from the miss (:func:`wind_from_shot`), fire the firing solution for that wind (``agents.analytic``).
+
+    ## Version History
+    * v0: initial version.
+    """
+
+    task_cls = ProjectileAdjustTask
+
+
+class ProjectileAdjustVectorEnv(VegymVectorEnv[ProjectileAdjustParams]):
+    """Native vector twin of :class:`ProjectileAdjustEnv` (same task code, NEXT_STEP autoreset)."""
+
+    task_cls = ProjectileAdjustTask

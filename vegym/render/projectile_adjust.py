@@ -1,0 +1,99 @@
+"""ProjectileAdjust-v0: every shot's trajectory along the line of fire, the landings around the target, the numbers."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from vegym.envs.projectile import ProjectileTask
+from vegym.envs.projectile_adjust import ProjectileAdjustParams
+from vegym.physics import projectile
+from vegym.render import canvas, clock
+
+WIDTH, HEIGHT = 760, 440
+_TEXT_LINES = 4
+"""Shots listed under the side view (the most recent)."""
+SHOT_COLORS: tuple[canvas.Color, ...] = (canvas.BLUE, canvas.ORANGE, canvas.GREEN, (140, 60, 170), canvas.BLACK)
+
+
+class ProjectileAdjustRenderer:
+    """Draws the launcher, the target and all the shots of a single env's episode; the hidden wind in grey."""
+
+    def __init__(self, params: ProjectileAdjustParams) -> None:
+        self.params = params
+        self.state: dict[str, np.ndarray] = {}
+        self.shots: list[dict[str, Any]] = []
+
+    def reset(self, state: dict[str, np.ndarray]) -> None:
+        self.state = {k: v[:1] for k, v in state.items()}
+        self.shots = []
+
+    def record(self, state: dict[str, np.ndarray], info: dict[str, Any]) -> None:
+        self.shots.append(info)
+
+    def draw(self) -> np.ndarray:
+        p = self.params
+        distance, _, (along, across) = ProjectileTask.target_frame(self.state)
+        along, across, distance = along[0], across[0], float(distance[0])
+        p0 = self.state["launch_position"][0]
+        surface = canvas.new_surface(WIDTH, HEIGHT)
+        reach = p.target_distance_max * 1.15
+        side = canvas.Panel(surface, (40, 70, 420, 260), (-5.0, reach, -2.0, max(p.launch_height_max, 10.0) * 1.6))
+        misses = [abs(shot[k]) for shot in self.shots for k in ("miss_along", "miss_across")]
+        zoom = float(np.clip(1.3 * max(misses, default=0.0), 3.0 * p.hit_radius, p.miss_scale))
+        top = canvas.Panel(surface, (490, 70, 250, 260), (-zoom, zoom, -zoom, zoom), equal_aspect=True)
+        side.frame(canvas.LIGHT)
+        top.frame(canvas.LIGHT)
+        side.line((-5.0, 0.0), (reach, 0.0), canvas.BLACK, 2)
+        side.line((0.0, 0.0), (0.0, p0[1]), canvas.BLACK, 4)
+        side.line((distance - p.hit_radius, 0.0), (distance + p.hit_radius, 0.0), canvas.RED, 5)
+        top.line((-zoom, 0.0), (zoom, 0.0), canvas.LIGHT)
+        top.line((0.0, -zoom), (0.0, zoom), canvas.LIGHT)
+        top.circle((0.0, 0.0), p.hit_radius, canvas.RED, 2)
+        wind = self.state["wind"][0]
+        top.arrow(
+            (-0.7 * zoom, -0.7 * zoom),
+            np.array([wind @ across, wind @ along]) * 0.25 * zoom / p.wind_scale,
+            canvas.GREY,
+        )
+        lines = []
+        for k, shot in enumerate(self.shots):
+            color = SHOT_COLORS[k % len(SHOT_COLORS)]
+            v0, w = shot["launch_velocity"], shot["wind"]
+            t = np.linspace(0.0, shot["flight_time"], 80)
+            path = projectile.position_at(p0[None], v0[None], w[None], t, p.physics) - p0
+            side.polyline(np.stack([path @ along, path[:, 1] + p0[1]], -1), color)
+            landing = (shot["miss_across"], shot["miss_along"])
+            surface.set_clip(top.rect)
+            top.dot(landing, 5, color)
+            x, y = top.to_px(*landing)
+            canvas.text(surface, [str(k + 1)], (x + 7, y - 8), 18, color)
+            surface.set_clip(None)
+            verdict = "HIT" if shot["is_success"] else "miss"
+            lines.append(
+                f"shot {k + 1}: {verdict} by {shot['miss_distance']:.2f} m "
+                f"({shot['miss_along']:+.2f} along, {shot['miss_across']:+.2f} across)   "
+                f"flight {shot['flight_time']:.2f} s"
+            )
+        header = f"target {distance:.1f} m   launch height {p0[1]:.1f} m   shot {len(self.shots)} of {p.max_shots}"
+        canvas.text(surface, [header], (12, 10), 20)
+        for k, line in enumerate(lines[-_TEXT_LINES:]):
+            index = len(lines) - len(lines[-_TEXT_LINES:]) + k
+            canvas.text(surface, [line], (40, 345 + 22 * k), 19, SHOT_COLORS[index % len(SHOT_COLORS)])
+        canvas.text(surface, ["side view along the line of fire (m)"], (44, 72), 16, canvas.GREY)
+        canvas.text(surface, [f"landings, +-{zoom:.1f} m"], (494, 72), 16, canvas.GREY)
+        canvas.text(
+            surface,
+            [
+                "top view: fire upward,",
+                "bearing increasing to the right;",
+                f"grey: hidden wind {np.linalg.norm(wind):.1f} m/s",
+            ],
+            (490, 335),
+            16,
+            canvas.GREY,
+        )
+        elapsed = float(sum(shot["flight_time"] for shot in self.shots))
+        clock.draw_clock(surface, elapsed, (WIDTH - clock.CORNER, clock.CORNER), clock.RADIUS)
+        return canvas.to_array(surface)
