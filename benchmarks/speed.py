@@ -1,0 +1,126 @@
+"""Step rates of every vegym env against Gymnasium's CartPole, measured in the same run.
+
+For each env: single-env steps/s through ``gymnasium.make`` (default wrappers), native vector env-steps/s at
+several batch sizes, the analytic controller's batched ``predict`` rate (observations/s) and the peak memory
+of the process. CartPole-v1 and its native ``CartPoleVectorEnv`` are measured with the same loops; ratios
+are vegym / CartPole. Run: ``python benchmarks/speed.py [--json] [--seconds S] [--envs ID ...]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import resource
+import time
+from collections.abc import Callable
+
+import gymnasium as gym
+
+import vegym
+from agents.analytic import controller_for
+
+CARTPOLE = "CartPole-v1"
+VECTOR_SIZES = (1, 64, 1024, 8192)
+
+
+def rate(run: Callable[[int], None], seconds: float) -> float:
+    """Calls of ``run(k)`` per second, with k grown until one timing lasts ``seconds``; best of three."""
+    k = 1
+    while True:
+        start = time.perf_counter()
+        run(k)
+        elapsed = time.perf_counter() - start
+        if elapsed >= seconds / 3 or k >= 1 << 24:
+            break
+        k *= 2 if elapsed > 0 else 16
+    best = elapsed
+    for _ in range(2):
+        start = time.perf_counter()
+        run(k)
+        best = min(best, time.perf_counter() - start)
+    return k / best
+
+
+def fixed_actions(space: gym.Space, count: int, seed: int = 0) -> list:
+    space.seed(seed)
+    return [space.sample() for _ in range(count)]
+
+
+def single_rate(env_id: str, seconds: float) -> float:
+    env = gym.make(env_id)
+    env.reset(seed=0)
+    actions = fixed_actions(env.action_space, 256)
+
+    def run(k: int) -> None:
+        for i in range(k):
+            _, _, terminated, truncated, _ = env.step(actions[i & 255])
+            if terminated or truncated:
+                env.reset()
+
+    return rate(run, seconds)
+
+
+def vector_rate(env_id: str, num_envs: int, seconds: float) -> float:
+    env = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point")
+    env.reset(seed=0)
+    actions = fixed_actions(env.action_space, 8)
+
+    def run(k: int) -> None:
+        for i in range(k):
+            env.step(actions[i & 7])
+
+    return rate(run, seconds) * num_envs
+
+
+def predict_rate(env_id: str, num_envs: int, seconds: float) -> float:
+    env = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point")
+    obs, _ = env.reset(seed=0)
+    controller = controller_for(env)
+
+    def run(k: int) -> None:
+        for _ in range(k):
+            controller.predict(obs)
+
+    return rate(run, seconds) * num_envs
+
+
+def measure(env_ids: list[str], seconds: float) -> dict:
+    results: dict = {"cartpole": {}, "envs": {}}
+    results["cartpole"]["single"] = single_rate(CARTPOLE, seconds)
+    for n in VECTOR_SIZES:
+        results["cartpole"][f"vector_{n}"] = vector_rate(CARTPOLE, n, seconds)
+    for env_id in env_ids:
+        row = {"single": single_rate(env_id, seconds)}
+        for n in VECTOR_SIZES:
+            row[f"vector_{n}"] = vector_rate(env_id, n, seconds)
+        row["predict_8192"] = predict_rate(env_id, 8192, seconds)
+        results["envs"][env_id] = row
+    results["peak_memory_mib"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    return results
+
+
+def table(results: dict) -> str:
+    cart = results["cartpole"]
+    columns = ["single", *(f"vector_{n}" for n in VECTOR_SIZES)]
+    header = "| env | " + " | ".join(columns) + " | predict_8192 (obs/s) |"
+    lines = [header, "|" + "---|" * (len(columns) + 2)]
+    lines.append(f"| {CARTPOLE} | " + " | ".join(f"{cart[c]:.3g}" for c in columns) + " | - |")
+    for env_id, row in results["envs"].items():
+        cells = [f"{row[c]:.3g} ({row[c] / cart[c]:.2f}x)" for c in columns]
+        lines.append(f"| {env_id} | " + " | ".join(cells) + f" | {row['predict_8192']:.3g} |")
+    lines.append(f"\nsteps/s (ratio to CartPole in the same run); peak memory {results['peak_memory_mib']:.0f} MiB")
+    return "\n".join(lines)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
+    parser.add_argument("--seconds", type=float, default=1.0, help="approximate time per measurement (s)")
+    parser.add_argument("--envs", nargs="*", default=list(vegym.ENVS), help="env ids (default: all registered)")
+    args = parser.parse_args()
+    results = measure(args.envs, args.seconds)
+    print(json.dumps(results, indent=2) if args.json else table(results))
+
+
+if __name__ == "__main__":
+    main()
