@@ -20,10 +20,13 @@ from vegym.envs.base import Task
 from vegym.envs.billiards import BilliardsParams, BilliardsTask, ghost_ball_shot
 from vegym.envs.bouncing_ball import BouncingBallParams, BouncingBallTask, optimal_apexes
 from vegym.envs.gear_train import GearTrainParams, GearTrainTask
+from vegym.envs.pendulum_pump import PendulumPumpParams, PendulumPumpTask
 from vegym.envs.projectile import AZIMUTH_LIMIT, ELEVATION_LIMIT, ProjectileEnvParams, ProjectileTask
 from vegym.envs.projectile_adjust import ProjectileAdjustParams, ProjectileAdjustTask, wind_from_shot
 from vegym.envs.steerable_wheel import SteerableWheelParams, SteerableWheelTask
-from vegym.physics import aircraft, projectile
+from vegym.envs.suspension import SuspensionParams, SuspensionTask
+from vegym.envs.thread import ThreadEnvParams, ThreadTask
+from vegym.physics import aircraft, pendulum, projectile, suspension, thread
 
 
 class AnalyticController(abc.ABC):
@@ -234,11 +237,75 @@ class GearTrainProportional(AnalyticController):
         return (np.clip(self.gain * error / ratio, -p.max_speed, p.max_speed) / p.max_speed)[:, None]
 
 
+class SuspensionSkyhook(AnalyticController):
+    """On-off skyhook (PHYSICS.md section 8): the stiffest damper when ``v (v - v_b) > 0``, else the softest.
+
+    The damper force ``-c (v - v_b)`` then opposes the body's absolute velocity v whenever it can, as a damper to
+    a fixed "sky" would. Only the signs of the observed body and relative velocities matter, and clipping keeps
+    them.
+    """
+
+    def __init__(self, params: SuspensionParams) -> None:
+        self.params = params
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        p = self.params
+        damping = suspension.skyhook_damping(obs[:, 1], obs[:, 2], p.damping_min, p.damping_max)
+        return (2.0 * (damping - p.damping_min) / (p.damping_max - p.damping_min) - 1.0)[:, None]
+
+
+class PendulumEnergyPumping(AnalyticController):
+    """Energy pumping (PHYSICS.md section 7): ``tau = sat(k_E (E* - E) omega, +-tau_max)``, from the observation.
+
+    The angle is ``atan2(sin, cos)``, the angular velocity and the target amplitude are rescaled (exact unless the
+    angular velocity is clipped, where the torque saturates anyway); the torque's power ``k_E (E* - E) omega^2``
+    moves the energy toward the target's ``E* = m g L (1 - cos theta*)``. ``gain`` k_E is in N m per (J rad/s).
+    """
+
+    def __init__(self, params: PendulumPumpParams, gain: float = 2.0) -> None:
+        self.params = params
+        self.physics = params.physics
+        self.gain = gain
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        p = self.params
+        theta, omega = np.arctan2(obs[:, 0], obs[:, 1]), obs[:, 2] * p.rate_scale
+        torque = pendulum.pump_torque(theta, omega, obs[:, 3] * np.pi, self.gain, p.max_torque, self.physics)
+        return (torque / p.max_torque)[:, None]
+
+
+class ThreadVelocityFeedback(AnalyticController):
+    """Collocated velocity feedback (PHYSICS.md section 9): ``u_k = -c_fb v_k`` at each actuated node, saturated.
+
+    Each actuator pushes against its own node's observed velocity, so it only ever takes energy out. The default
+    gain is near critical damping of the slowest mode, ``c_fb = 2 m omega_1`` (omega_1 from the rest shape's
+    stiffness), capped at ``m / (4 dt)`` so that the feedback, held over a control step, stays well inside the
+    sampled-data stability limit ``c_fb dt / m < 1``.
+    """
+
+    def __init__(self, params: ThreadEnvParams, gain: float | None = None) -> None:
+        self.params = params
+        self.actuated = params.actuated
+        if gain is None:
+            slowest = float(thread.mode_frequencies(params.physics)[0])
+            gain = min(2.0 * params.node_mass * slowest, params.node_mass / (4.0 * params.dt))
+        self.gain = gain
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        p = self.params
+        n, nodes = len(obs), p.n_nodes
+        velocities = obs[:, 2 * nodes : 4 * nodes].reshape(n, nodes, 2)[:, self.actuated] * p.velocity_scale
+        return (-self.gain * velocities / p.max_force).reshape(n, -1)
+
+
 CONTROLLERS: dict[type[Task], Callable[[Any], AnalyticController]] = {
     BouncingBallTask: BouncingBallMyopic,
     ProjectileTask: ProjectileFiringSolution,
     AircraftTask: AircraftAutopilot,
     SteerableWheelTask: SteerableWheelPurePursuit,
+    SuspensionTask: SuspensionSkyhook,
+    PendulumPumpTask: PendulumEnergyPumping,
+    ThreadTask: ThreadVelocityFeedback,
     BilliardsTask: BilliardsGhostBall,
     GearTrainTask: GearTrainProportional,
     ProjectileAdjustTask: ProjectileAdjustFire,

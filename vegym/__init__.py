@@ -43,6 +43,24 @@ ENVS: dict[str, dict[str, object]] = {
         "kwargs": {"draft_max": 4.0, "gust_amplitude": 2.0},
         "summary": "Aircraft-v0 in a steady updraft or downdraft with gusts",
     },
+    "vegym/Suspension-v0": {
+        "module": "vegym.envs.suspension",
+        "env": "SuspensionEnv",
+        "max_episode_steps": 1000,
+        "summary": "set a semi-active quarter-car damper for ride comfort over undulating terrain",
+    },
+    "vegym/PendulumPump-v0": {
+        "module": "vegym.envs.pendulum_pump",
+        "env": "PendulumPumpEnv",
+        "max_episode_steps": 800,
+        "summary": "swing a pendulum with a weak torque at a target amplitude that changes",
+    },
+    "vegym/Thread-v0": {
+        "module": "vegym.envs.thread",
+        "env": "ThreadEnv",
+        "max_episode_steps": 500,
+        "summary": "damp a plucked elastic thread with bounded forces at a few nodes",
+    },
     "vegym/Billiards-v0": {
         "module": "vegym.envs.billiards",
         "env": "BilliardsEnv",

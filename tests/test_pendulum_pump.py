@@ -1,0 +1,162 @@
+"""PendulumPump-v0: energy pumping against random, the target schedule, info in SI, step independence."""
+
+from __future__ import annotations
+
+import math
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import vegym  # noqa: F401
+from agents.analytic import PendulumEnergyPumping, controller_for
+from vegym.envs.pendulum_pump import PendulumPumpParams
+from vegym.physics import pendulum
+
+ENV_ID = "vegym/PendulumPump-v0"
+EPISODES = 50
+
+
+def episodes(policy: str, n: int = EPISODES, seed: int = 0) -> dict[str, np.ndarray]:
+    """Return, success at the last step and the fraction of successful steps of one full episode per sub-env."""
+    env = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point")
+    controller, rng = controller_for(env), np.random.default_rng(seed)
+    obs, _ = env.reset(seed=seed)
+    returns, on_target = np.zeros(n), np.zeros(n)
+    truncated = np.zeros(n, dtype=bool)
+    while not truncated.any():
+        if policy == "pumping":
+            action = controller.predict(obs)[0]
+        else:
+            action = rng.uniform(-1.0, 1.0, (n, 1)).astype(np.float32)
+        obs, reward, terminated, truncated, info = env.step(action)
+        assert not terminated.any()
+        returns += reward
+        on_target += info["is_success"]
+    assert truncated.all()
+    return {"return": returns, "success": info["is_success"], "on_target": on_target / 800}
+
+
+def test_energy_pumping_holds_every_final_target_and_beats_random_by_far() -> None:
+    pump, chance = episodes("pumping"), episodes("random")
+    print(
+        f"\nPendulumPump-v0 over {EPISODES} episodes: pumping return {pump['return'].mean():.2f}, final success "
+        f"{pump['success'].mean():.0%}, on target {pump['on_target'].mean():.0%} of the time; random return "
+        f"{chance['return'].mean():.2f}, final success {chance['success'].mean():.0%}, on target "
+        f"{chance['on_target'].mean():.0%}"
+    )
+    assert pump["success"].mean() >= 0.95 and chance["success"].mean() <= 0.1
+    assert pump["on_target"].mean() > 0.7 > 0.1 > chance["on_target"].mean()
+    assert pump["return"].mean() > 0.25 * chance["return"].mean()  # returns are negative: 4x less error
+    assert np.all(pump["return"] > chance["return"])
+    assert isinstance(controller_for(gym.make(ENV_ID)), PendulumEnergyPumping)
+
+
+def test_controller_from_the_observation_is_energy_pumping_on_the_true_state() -> None:
+    env = gym.make_vec(ENV_ID, num_envs=64, vectorization_mode="vector_entry_point")
+    p: PendulumPumpParams = env.unwrapped.params
+    controller = controller_for(env)
+    obs, _ = env.reset(seed=2)
+    for _ in range(400):
+        s = env.unwrapped.state
+        torque = pendulum.pump_torque(s["theta"], s["omega"], s["target"], controller.gain, p.max_torque, p.physics)
+        action = controller.predict(obs)[0]
+        np.testing.assert_allclose(action[:, 0], torque / p.max_torque, atol=1e-4)  # float32 observations
+        obs, *_ = env.step(action)
+
+
+def test_targets_change_at_random_times_from_the_seed_alone_and_never_near_the_end() -> None:
+    p = PendulumPumpParams()
+    schedules = []
+    for seed in (1, 2):
+        env = gym.make_vec(ENV_ID, num_envs=200, vectorization_mode="vector_entry_point")
+        rng = np.random.default_rng(seed)
+        obs, _ = env.reset(seed=9)
+        targets = [env.unwrapped.state["target"]]
+        for _ in range(p.episode_steps):
+            obs, *_ = env.step(rng.uniform(-1.0, 1.0, (200, 1)).astype(np.float32))
+            targets.append(env.unwrapped.state["target"])
+            np.testing.assert_allclose(obs[:, 3], targets[-1] / np.pi, rtol=1e-6)
+        schedules.append(np.array(targets))
+    targets = schedules[0]
+    np.testing.assert_array_equal(targets, schedules[1])
+    assert np.all((targets >= p.target_min) & (targets < p.target_max))
+    steps, envs = np.nonzero(targets[1:] != targets[:-1])
+    steps = steps + 1
+    assert steps.max() <= p.episode_steps - p.final_hold / p.dt
+    for i in range(200):
+        at = np.concatenate([[0], steps[envs == i]])
+        gaps = np.diff(at) * p.dt
+        assert len(at) >= 2 and np.all(gaps >= p.change_interval_min - 1e-9) and np.all(gaps <= p.change_interval_max)
+
+
+def test_info_is_the_pendulum_step_in_si_units() -> None:
+    env = gym.make(ENV_ID)
+    env.reset(seed=4)
+    p: PendulumPumpParams = env.unwrapped.params
+    theta, omega = env.unwrapped.state["theta"].copy(), env.unwrapped.state["omega"].copy()
+    for a in np.linspace(-1.0, 1.0, 30, dtype=np.float32):
+        torque = p.max_torque * float(a)
+        for _ in range(p.substeps):
+            theta, omega = pendulum.step(theta, omega, torque, p.dt / p.substeps, p.physics)
+        _, reward, terminated, truncated, info = env.step(np.array([a]))
+        assert set(info) == {
+            "angle",
+            "angular_velocity",
+            "torque",
+            "energy",
+            "amplitude",
+            "target_amplitude",
+            "target_energy",
+            "dt",
+            "reward_terms",
+            "is_success",
+        }
+        assert -math.pi <= info["angle"] < math.pi
+        assert math.sin(info["angle"]) == pytest.approx(math.sin(theta[0]), abs=1e-12)
+        assert math.cos(info["angle"]) == pytest.approx(math.cos(theta[0]), abs=1e-12)
+        assert info["angular_velocity"] == pytest.approx(omega[0], rel=1e-12, abs=1e-12)
+        assert (info["torque"], info["dt"]) == (torque, p.dt)
+        mgl = p.mass * p.gravity * p.length
+        energy = 0.5 * p.mass * p.length**2 * omega[0] ** 2 + mgl * (1 - math.cos(theta[0]))
+        assert info["energy"] == pytest.approx(energy, rel=1e-12)
+        assert info["amplitude"] == pytest.approx(math.acos(min(1.0, max(-1.0, 1.0 - energy / mgl))), rel=1e-9)
+        target = info["target_amplitude"]
+        assert info["target_energy"] == pytest.approx(mgl * (1.0 - math.cos(target)), rel=1e-12)
+        error = info["amplitude"] - target
+        assert info["reward_terms"] == {
+            "amplitude": pytest.approx(-p.dt * abs(error) / math.pi, rel=1e-12),
+            "effort": pytest.approx(-p.effort_weight * p.dt * float(a) ** 2, rel=1e-6),
+        }
+        assert reward == sum(info["reward_terms"].values())
+        assert info["is_success"] == (abs(error) <= p.success_tolerance)
+        assert not terminated and not truncated
+
+
+def test_the_swing_does_not_depend_on_the_step_only_on_the_time() -> None:
+    """A free swing (no torque) over 10 s with control steps of 0.05 s (5 substeps) and 0.01 s (1 substep), the same
+    integration step: the same motion, since every parameter is a rate."""
+    runs = []
+    for dt, substeps in ((0.05, 5), (0.01, 1)):
+        env = gym.make(ENV_ID, dt=dt, substeps=substeps, episode_steps=round(40 / dt), max_episode_steps=round(10 / dt))
+        env.reset(seed=3)
+        for _ in range(round(10 / dt)):
+            _, _, _, truncated, info = env.step(np.zeros(1, np.float32))
+        assert truncated
+        runs.append((info["angle"], info["angular_velocity"], info["energy"]))
+    np.testing.assert_allclose(runs[0], runs[1], rtol=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "name"),
+    [
+        ({"target_min": 2.5}, "target_min"),
+        ({"change_interval_min": 30.0}, "change_interval_min"),
+        ({"final_hold": 50.0}, "final_hold"),
+        ({"dt": 4.0, "change_interval_min": 20.0, "final_hold": 4.0}, "substeps"),
+        ({"target_max": 4.0}, "target_max"),
+    ],
+)
+def test_bad_parameters_raise_value_error_naming_them(kwargs: dict, name: str) -> None:
+    with pytest.raises(ValueError, match=name):
+        gym.make(ENV_ID, **kwargs)

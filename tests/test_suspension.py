@@ -1,0 +1,188 @@
+"""Suspension-v0: skyhook against random and passive dampers, info in SI, the cumulative terrain, bump stops."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import vegym  # noqa: F401
+from agents.analytic import SuspensionSkyhook, controller_for
+from vegym.envs.suspension import SuspensionParams
+from vegym.physics import suspension
+
+ENV_ID = "vegym/Suspension-v0"
+EPISODES = 50
+
+
+def first_episodes(policy: str | float, n: int = EPISODES, seed: int = 0, **params: float) -> dict[str, np.ndarray]:
+    """Return, final success and length of the first episode of n sub-envs (seeds seed .. seed + n - 1) under the
+    skyhook (``"skyhook"``), uniform random actions (``"random"``) or a constant action (a passive damper)."""
+    env = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", **params)
+    controller, rng = controller_for(env), np.random.default_rng(seed)
+    obs, _ = env.reset(seed=seed)
+    done, success = np.zeros(n, bool), np.zeros(n, bool)
+    returns, lengths = np.zeros(n), np.zeros(n, dtype=np.int64)
+    while not done.all():
+        if policy == "skyhook":
+            action = controller.predict(obs)[0]
+        elif policy == "random":
+            action = rng.uniform(-1.0, 1.0, (n, 1)).astype(np.float32)
+        else:
+            action = np.full((n, 1), policy, np.float32)
+        obs, reward, terminated, truncated, info = env.step(action)
+        returns[~done] += reward[~done]
+        lengths[~done] += 1
+        ended = (terminated | truncated) & ~done
+        success[ended] = info["is_success"][ended]
+        done |= ended
+    return {"return": returns, "success": success, "length": lengths}
+
+
+def test_skyhook_beats_random_and_every_passive_setting_clearly() -> None:
+    sky, chance = first_episodes("skyhook"), first_episodes("random")
+    passive = {a: first_episodes(a) for a in (-1.0, 0.0, 1.0)}
+    print(
+        f"\nSuspension-v0 over {EPISODES} episodes: skyhook return {sky['return'].mean():.3f}, success "
+        f"{sky['success'].mean():.0%}; random {chance['return'].mean():.3f}, {chance['success'].mean():.0%}; "
+        + "; ".join(
+            f"passive a={a:+.0f} {r['return'].mean():.3f}, {r['success'].mean():.0%}" for a, r in passive.items()
+        )
+    )
+    assert sky["success"].mean() >= 0.8 and chance["success"].mean() <= 0.6
+    assert sky["return"].mean() < 0.0 and sky["return"].mean() > 0.7 * chance["return"].mean()  # 30% less cost
+    assert np.mean(sky["return"] > chance["return"]) >= 0.9
+    for a, result in passive.items():
+        assert sky["return"].mean() > result["return"].mean(), a
+    assert np.all(sky["length"] == 1000)  # never hits a bump stop
+    assert np.mean(passive[-1.0]["length"] < 1000) > 0.2  # the softest damper often does
+    assert isinstance(controller_for(gym.make(ENV_ID)), SuspensionSkyhook)
+
+
+def test_controller_from_the_observation_is_the_skyhook_law_on_the_true_state() -> None:
+    env = gym.make_vec(ENV_ID, num_envs=64, vectorization_mode="vector_entry_point")
+    p: SuspensionParams = env.unwrapped.params
+    controller = controller_for(env)
+    obs, _ = env.reset(seed=3)
+    for _ in range(200):
+        state = env.unwrapped.state
+        relative = state["velocity"] - state["base_velocity"]
+        damping = suspension.skyhook_damping(state["velocity"], relative, p.damping_min, p.damping_max)
+        action = controller.predict(obs)[0]
+        np.testing.assert_array_equal(action[:, 0], np.where(damping == p.damping_max, 1.0, -1.0))
+        obs, _, _, _, info = env.step(action)
+        np.testing.assert_array_equal(info["damping"], damping)
+
+
+def test_info_is_the_quarter_car_step_in_si_units_over_the_cumulative_terrain() -> None:
+    env = gym.make(ENV_ID)
+    env.reset(seed=5)
+    p: SuspensionParams = env.unwrapped.params
+    terrain = {k: env.unwrapped.state[k] for k in ("amplitude", "wavenumber", "phase")}
+    start, _ = suspension.terrain(np.zeros(1), *terrain.values())
+    y, v = np.full(1, p.static_length), env.unwrapped.state["velocity"].copy()
+    base, base_velocity, squared = np.zeros(1), v.copy(), 0.0
+    for k, a in enumerate(np.linspace(-1.0, 1.0, 40, dtype=np.float32)):
+        c = p.damping_min + 0.5 * (float(a) + 1.0) * (p.damping_max - p.damping_min)
+        y, v, acceleration = suspension.step(y, v, base, base_velocity, c, p.dt, p.spring)
+        x = (k + 1) * p.dt * p.speed
+        height, slope = suspension.terrain(np.array([x]), *terrain.values())
+        base, base_velocity = height - start, slope * p.speed
+        squared += p.dt * acceleration[0] ** 2
+        _, reward, terminated, truncated, info = env.step(np.array([a]))
+        assert info["damping"] == pytest.approx(c, rel=1e-12)
+        expected = (y[0], v[0], acceleration[0], base[0], base_velocity[0])
+        observed = tuple(info[k] for k in ("body_height", "body_velocity", "body_acceleration", "base_height"))
+        assert (*observed, info["base_velocity"]) == pytest.approx(expected, rel=1e-9, abs=1e-12)
+        assert info["distance"] == pytest.approx(x, rel=1e-12)
+        assert info["travel"] == pytest.approx(y[0] - base[0] - p.static_length, abs=1e-15)
+        assert info["rms_acceleration"] == pytest.approx(np.sqrt(squared / ((k + 1) * p.dt)), rel=1e-12)
+        assert info["reward_terms"] == {
+            "comfort": pytest.approx(-p.dt * min((acceleration[0] / p.accel_scale) ** 2, 1.0), rel=1e-12),
+            "bump_stop": 0.0,
+        }
+        assert info["dt"] == p.dt and reward == sum(info["reward_terms"].values())
+        assert not terminated and not truncated
+    assert set(info) == {
+        "body_height",
+        "body_velocity",
+        "body_acceleration",
+        "base_height",
+        "base_velocity",
+        "travel",
+        "damping",
+        "distance",
+        "rms_acceleration",
+        "dt",
+        "reward_terms",
+        "is_success",
+    }
+
+
+def test_terrain_is_drawn_from_the_seed_within_its_ranges() -> None:
+    env = gym.make_vec(ENV_ID, num_envs=500, vectorization_mode="vector_entry_point")
+    env.reset(seed=0)
+    p: SuspensionParams = env.unwrapped.params
+    state = env.unwrapped.state
+    wavelength = 2.0 * np.pi / state["wavenumber"]
+    slope = state["amplitude"] * state["wavenumber"]
+    assert state["amplitude"].shape == (500, p.n_waves)
+    assert np.all((wavelength >= p.wavelength_min) & (wavelength <= p.wavelength_max))
+    assert np.all((slope >= p.slope_min) & (slope <= p.slope_max))
+    assert np.all((state["phase"] >= 0.0) & (state["phase"] < 2.0 * np.pi))
+    quarter = np.log(p.wavelength_max / p.wavelength_min) / 4.0
+    assert np.mean(np.log(wavelength / p.wavelength_min) < quarter) == pytest.approx(0.25, abs=0.04)  # log-uniform
+    np.testing.assert_array_equal(state["base"], 0.0)
+    np.testing.assert_array_equal(state["height"], p.static_length)
+
+
+def test_the_ride_does_not_depend_on_the_step_only_rates_are_parameters() -> None:
+    """A passive damper over the same roads at dt = 0.01 s and 0.0025 s: the same RMS acceleration within 4% (the
+    semi-implicit Euler error is first order; the book's per-step terrain difference would scale it with dt)."""
+    rms = []
+    for dt, steps in ((0.0025, 4000), (0.01, 1000)):
+        env = gym.make_vec(
+            ENV_ID,
+            num_envs=20,
+            vectorization_mode="vector_entry_point",
+            max_episode_steps=steps,
+            dt=dt,
+            episode_steps=steps,
+        )
+        env.reset(seed=1)
+        for _ in range(steps):
+            _, _, terminated, _, info = env.step(np.zeros((20, 1), np.float32))
+            assert not terminated.any()
+        rms.append(info["rms_acceleration"])
+    np.testing.assert_allclose(rms[0], rms[1], rtol=0.04)
+
+
+def test_a_soft_damper_on_a_resonant_road_hits_the_bump_stop_and_pays_for_the_rest_of_the_episode() -> None:
+    p = SuspensionParams()
+    resonant = 2.0 * np.pi * p.speed / p.spring.natural_frequency
+    env = gym.make(ENV_ID, n_waves=1, wavelength_min=resonant, wavelength_max=resonant, slope_min=0.01)
+    env.reset(seed=0)
+    terminated, steps = False, 0
+    while not terminated and steps < 1000:
+        _, reward, terminated, _, info = env.step(np.array([-1.0], np.float32))
+        steps += 1
+    assert terminated and abs(info["travel"]) > p.travel_limit and not info["is_success"]
+    remaining = (p.episode_steps - steps) * p.dt
+    assert info["reward_terms"]["bump_stop"] == pytest.approx(-(p.bottom_out_penalty + remaining), rel=1e-12)
+    assert -reward > remaining  # more than the worst the rest of the episode could have cost
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "name"),
+    [
+        ({"modulus": 1000.0}, "modulus"),
+        ({"damping_min": 5000.0}, "damping_min"),
+        ({"slope_min": 0.02}, "slope_min"),
+        ({"wavelength_min": 40.0}, "wavelength_min"),
+        ({"dt": 0.2}, "dt"),
+        ({"n_waves": 0}, "n_waves"),
+    ],
+)
+def test_bad_parameters_raise_value_error_naming_them(kwargs: dict, name: str) -> None:
+    with pytest.raises(ValueError, match=name):
+        gym.make(ENV_ID, **kwargs)

@@ -1,0 +1,173 @@
+"""Thread-v0: velocity feedback against random, the pluck, info in SI, settling, step independence, substeps."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import vegym  # noqa: F401
+from agents.analytic import ThreadVelocityFeedback, controller_for
+from vegym.envs.thread import ThreadEnvParams
+from vegym.physics import thread
+
+ENV_ID = "vegym/Thread-v0"
+EPISODES = 50
+
+
+def first_episodes(policy: str, n: int = EPISODES, seed: int = 0) -> dict[str, np.ndarray]:
+    """Return, success and length (steps) of the first episode of n sub-envs under feedback, random or no force."""
+    env = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point")
+    controller, rng = controller_for(env), np.random.default_rng(seed)
+    obs, _ = env.reset(seed=seed)
+    done, success = np.zeros(n, bool), np.zeros(n, bool)
+    returns, lengths = np.zeros(n), np.zeros(n, dtype=np.int64)
+    while not done.all():
+        if policy == "feedback":
+            action = controller.predict(obs)[0]
+        elif policy == "random":
+            action = rng.uniform(-1.0, 1.0, (n, 6)).astype(np.float32)
+        else:
+            action = np.zeros((n, 6), np.float32)
+        obs, reward, terminated, truncated, info = env.step(action)
+        returns[~done] += reward[~done]
+        lengths[~done] += 1
+        ended = (terminated | truncated) & ~done
+        success[ended] = info["is_success"][ended]
+        done |= ended
+    return {"return": returns, "success": success, "length": lengths}
+
+
+def test_velocity_feedback_settles_every_pluck_within_a_second_and_beats_random_by_far() -> None:
+    feedback, chance, passive = first_episodes("feedback"), first_episodes("random"), first_episodes("none")
+    print(
+        f"\nThread-v0 over {EPISODES} episodes: feedback return {feedback['return'].mean():.3f}, success "
+        f"{feedback['success'].mean():.0%}, settled after {feedback['length'].mean() * 0.01:.2f} s on average "
+        f"({feedback['length'].max() * 0.01:.2f} s at most); random {chance['return'].mean():.2f}, "
+        f"{chance['success'].mean():.0%}; no force {passive['return'].mean():.2f}, {passive['success'].mean():.0%}"
+    )
+    assert feedback["success"].all() and feedback["length"].max() <= 100
+    assert not chance["success"].any() and not passive["success"].any()
+    assert feedback["return"].min() > 10.0 * passive["return"].max() > 10.0 * chance["return"].max()
+    assert isinstance(controller_for(gym.make(ENV_ID)), ThreadVelocityFeedback)
+
+
+def test_controller_from_the_observation_is_saturated_collocated_velocity_feedback() -> None:
+    env = gym.make_vec(ENV_ID, num_envs=32, vectorization_mode="vector_entry_point")
+    p: ThreadEnvParams = env.unwrapped.params
+    controller = controller_for(env)
+    slowest = thread.mode_frequencies(p.physics)[0]
+    assert controller.gain == min(2.0 * p.node_mass * slowest, p.node_mass / (4.0 * p.dt)) == 0.5
+    obs, _ = env.reset(seed=1)
+    for _ in range(30):
+        velocities = env.unwrapped.state["velocities"][:, p.actuated]
+        expected = np.clip(-controller.gain * velocities / p.max_force, -1.0, 1.0).reshape(32, -1)
+        action = controller.predict(obs)[0]
+        np.testing.assert_allclose(action, expected, atol=1e-6)
+        obs, _, _, _, info = env.step(action)
+        np.testing.assert_allclose(info["forces"], p.max_force * action.reshape(32, 3, 2))
+
+
+def test_the_pluck_is_a_triangle_on_the_rest_shape_released_at_rest() -> None:
+    env = gym.make_vec(ENV_ID, num_envs=400, vectorization_mode="vector_entry_point")
+    obs, _ = env.reset(seed=0)
+    p: ThreadEnvParams = env.unwrapped.params
+    state = env.unwrapped.state
+    rest = thread.static_equilibrium(p.physics)
+    lift = state["positions"] - rest
+    np.testing.assert_array_equal(lift[..., 0], 0.0)
+    np.testing.assert_array_equal(state["velocities"], 0.0)
+    peak = np.max(np.abs(lift[..., 1]), axis=1)
+    x = rest[:, 0] / p.span
+    assert np.all(peak <= p.pluck_max) and peak.min() > 0.0
+    for row in lift[:, :, 1]:
+        slopes = np.diff(np.concatenate([[0.0], row, [0.0]])) / np.diff(np.concatenate([[0.0], x, [1.0]]))
+        kinks = np.flatnonzero(np.abs(np.diff(slopes)) > 1e-9 * p.pluck_max)
+        assert len(kinks) <= 2 and (len(kinks) < 2 or kinks[1] == kinks[0] + 1)  # one straight piece per side
+    assert 0.4 < np.mean(lift[:, :, 1].sum(axis=1) > 0) < 0.6  # up or down
+    assert np.all(state["initial_excess"] > 0.0) and np.all(obs[:, -1] == 1.0)
+    excess = thread.energy(state["positions"], state["velocities"], p.physics)
+    excess -= thread.energy(rest[None], np.zeros((1, 9, 2)), p.physics)
+    np.testing.assert_allclose(state["initial_excess"], excess, rtol=1e-12)
+
+
+def test_info_is_the_thread_step_in_si_units_and_settling_ends_the_episode() -> None:
+    env = gym.make(ENV_ID)
+    env.reset(seed=6)
+    p: ThreadEnvParams = env.unwrapped.params
+    task = env.unwrapped.task
+    positions, velocities = env.unwrapped.state["positions"].copy(), env.unwrapped.state["velocities"].copy()
+    initial = float(env.unwrapped.state["initial_excess"][0])
+    controller = controller_for(env)
+    obs = env.unwrapped.task.observe(env.unwrapped.state)[0]
+    terminated, steps = False, 0
+    while not terminated and steps < 100:
+        steps += 1
+        action = controller.predict(obs)[0]
+        applied = np.zeros((1, 9, 2))
+        applied[0, p.actuated] = p.max_force * action.astype(np.float64).reshape(3, 2)
+        for _ in range(task.substeps):
+            positions, velocities = thread.step(positions, velocities, applied, p.dt / task.substeps, p.physics)
+        obs, reward, terminated, truncated, info = env.step(action)
+        assert set(info) == {
+            "positions",
+            "velocities",
+            "forces",
+            "energy",
+            "excess_energy",
+            "energy_fraction",
+            "dt",
+            "reward_terms",
+            "is_success",
+        }
+        np.testing.assert_array_equal(info["positions"], positions[0])
+        np.testing.assert_array_equal(info["velocities"], velocities[0])
+        energy = thread.energy(positions, velocities, p.physics)[0]
+        assert info["energy"] == energy and info["excess_energy"] == pytest.approx(energy - task.rest_energy)
+        fraction = info["excess_energy"] / initial
+        assert info["energy_fraction"] == pytest.approx(fraction, rel=1e-12)
+        assert info["reward_terms"] == {
+            "energy": pytest.approx(-p.dt * fraction, rel=1e-12),
+            "effort": pytest.approx(-p.effort_weight * p.dt * float(np.mean(action.astype(np.float64) ** 2))),
+        }
+        assert reward == sum(info["reward_terms"].values()) and info["dt"] == p.dt and not truncated
+        assert terminated == info["is_success"] == (fraction <= p.settle_fraction)
+    assert terminated and steps < 100
+
+
+def test_the_motion_does_not_depend_on_the_control_step() -> None:
+    """Without forces, 0.5 s at dt = 0.01 s (3 substeps) and 0.002 s (1 substep) from the same pluck: the same
+    thread within the first-order error of the integration steps (3.3 ms and 2 ms)."""
+    runs = []
+    for dt in (0.01, 0.002):
+        env = gym.make(ENV_ID, dt=dt, max_episode_steps=1000)
+        env.reset(seed=2)
+        assert env.unwrapped.task.substeps == {0.01: 3, 0.002: 1}[dt]
+        for _ in range(round(0.5 / dt)):
+            _, _, _, _, info = env.step(np.zeros(6, np.float32))
+        runs.append(info["positions"])
+    np.testing.assert_allclose(runs[0], runs[1], atol=2e-3)  # 2 mm; the pluck is up to 10 cm
+    assert np.max(np.abs(runs[0] - thread.static_equilibrium(env.unwrapped.params.physics))) > 0.01
+
+
+def test_actuators_are_spread_evenly_and_mirror_symmetric_where_they_can_be() -> None:
+    for n_nodes, n_actuators, expected in ((9, 3, [2, 4, 6]), (9, 2, [2, 6]), (10, 2, [3, 6]), (4, 4, [0, 1, 2, 3])):
+        actuated = ThreadEnvParams(n_nodes=n_nodes, n_actuators=n_actuators).actuated
+        np.testing.assert_array_equal(actuated, expected)
+        np.testing.assert_array_equal(actuated, (n_nodes - 1 - actuated)[::-1])
+    np.testing.assert_array_equal(ThreadEnvParams(n_nodes=10, n_actuators=3).actuated, [2, 5, 7])
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "name"),
+    [
+        ({"n_actuators": 10}, "n_actuators"),
+        ({"pluck_min": 0.2}, "pluck_min"),
+        ({"pluck_margin": 0.5}, "pluck_margin"),
+        ({"settle_fraction": 1.0}, "settle_fraction"),
+        ({"dt": 2.0}, "dt"),
+    ],
+)
+def test_bad_parameters_raise_value_error_naming_them(kwargs: dict, name: str) -> None:
+    with pytest.raises(ValueError, match=name):
+        gym.make(ENV_ID, **kwargs)

@@ -1,0 +1,241 @@
+"""PendulumPump-v0: swing a pendulum with a bounded pivot torque at a target amplitude that changes at random times."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from gymnasium import spaces
+
+from vegym import rng
+from vegym.envs.base import State, Task, Transition, VegymEnv, VegymVectorEnv
+from vegym.params import Params, invalid, param
+from vegym.physics import pendulum
+from vegym.physics.particle import STANDARD_GRAVITY
+from vegym.physics.pendulum import PendulumParams
+
+_START_STREAM = 1
+_TARGET_STREAM = 2
+_INTERVAL_STREAM = 3
+_NO_CHANGE = np.iinfo(np.int64).max
+"""``next_change`` of an episode whose target schedule has ended."""
+
+
+@dataclass(frozen=True)
+class PendulumPumpParams(Params):
+    """Parameters of PendulumPump-v0 (SI units, radians; angles from the downward vertical)."""
+
+    length: float = param(1.0, "L, rod length (m)", low=0.0, low_open=True)
+    mass: float = param(1.0, "m, bob mass (kg)", low=0.0, low_open=True)
+    gravity: float = param(STANDARD_GRAVITY, "gravitational acceleration magnitude (m/s^2)", low=0.0, low_open=True)
+    damping: float = param(0.05, "b, viscous pivot damping (N m s/rad)", low=0.0)
+    max_torque: float = param(1.0, "tau_max, largest pivot torque (N m)", low=0.0, low_open=True)
+    dt: float = param(0.05, "control step (s); the torque is held over it", low=0.0, low_open=True)
+    substeps: int = param(5, "semi-implicit Euler steps per control step", low=1, high=1000)
+    start_angle_max: float = param(math.radians(30.0), "start angle uniform in +-this (rad)", low=0.0, high=math.pi)
+    start_rate_max: float = param(0.5, "start angular velocity uniform in +-this (rad/s)", low=0.0)
+    target_min: float = param(math.radians(15.0), "smallest target amplitude (rad)", low=0.0, high=math.pi)
+    target_max: float = param(math.radians(120.0), "largest target amplitude (rad)", low=0.0, high=math.pi)
+    change_interval_min: float = param(10.0, "shortest time between target changes (s)", low=0.0, low_open=True)
+    change_interval_max: float = param(20.0, "longest time between target changes (s)", low=0.0, low_open=True)
+    final_hold: float = param(15.0, "no target change within this time of the planned episode end (s)", low=0.0)
+    episode_steps: int = param(800, "planned episode length (steps): the registered max_episode_steps", low=1)
+    success_tolerance: float = param(math.radians(5.0), "is_success: largest amplitude error (rad)", low=0.0)
+    effort_weight: float = param(0.02, "cost per second of full torque (quadratic in the action)", low=0.0)
+
+    def validate(self) -> None:
+        if self.target_min > self.target_max:
+            raise invalid("target_min", self.target_min, f"[0, target_max={self.target_max}]")
+        if not self.dt <= self.change_interval_min <= self.change_interval_max:
+            raise invalid(
+                "change_interval_min",
+                self.change_interval_min,
+                f"[dt={self.dt}, change_interval_max={self.change_interval_max}]",
+            )
+        if self.final_hold > self.episode_steps * self.dt:
+            raise invalid("final_hold", self.final_hold, f"[0, episode_steps * dt={self.episode_steps * self.dt}]")
+        stable = self.physics.max_stable_step()
+        if self.step_length >= stable:
+            raise invalid("substeps", self.substeps, f"(dt / {stable:.4g}, 1000]: semi-implicit Euler is unstable")
+
+    @property
+    def physics(self) -> PendulumParams:
+        """The pendulum physics parameters."""
+        return PendulumParams(length=self.length, mass=self.mass, gravity=self.gravity, damping=self.damping)
+
+    @property
+    def step_length(self) -> float:
+        """Integration step ``dt / substeps`` (s)."""
+        return self.dt / self.substeps
+
+    @property
+    def rate_scale(self) -> float:
+        """Angular velocity of a full unit of observation: ``2 sqrt(g / L)`` (rad/s), the speed at the bottom of a
+        swing that just reaches the top."""
+        return 2.0 * math.sqrt(self.gravity / self.length)
+
+    @property
+    def last_change_step(self) -> int:
+        """Latest step at which the target may change: ``episode_steps - final_hold / dt``."""
+        return self.episode_steps - int(math.ceil(self.final_hold / self.dt - 1e-9))
+
+
+class PendulumPumpTask(Task[PendulumPumpParams]):
+    """Batched logic of PendulumPump-v0 (see :class:`PendulumPumpEnv`)."""
+
+    params_cls = PendulumPumpParams
+    renderer = "vegym.render.pendulum_pump:PendulumPumpRenderer"
+
+    def __init__(self, params: PendulumPumpParams) -> None:
+        super().__init__(params)
+        self.physics = params.physics
+        low = np.array([-1, -1, -1, 0, -1, -1], np.float32)
+        self.observation_space = spaces.Box(low, np.ones(6, np.float32), dtype=np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
+
+    @property
+    def control_rate(self) -> float:
+        return 1.0 / self.params.dt
+
+    def draw_target(self, keys: np.ndarray, index: np.ndarray) -> np.ndarray:
+        """Target amplitude number ``index`` (n,) of each episode (rad), uniform in ``[target_min, target_max]``."""
+        p = self.params
+        return rng.uniform_in(keys, _TARGET_STREAM, p.target_min, p.target_max, counter=index)[:, 0]
+
+    def next_change(self, keys: np.ndarray, index: np.ndarray, now: np.ndarray) -> np.ndarray:
+        """Step of the change that ends target number ``index`` (n,), set at step ``now``: an interval uniform in
+        ``[change_interval_min, change_interval_max]`` later, or ``_NO_CHANGE`` past ``last_change_step``."""
+        p = self.params
+        seconds = rng.uniform_in(keys, _INTERVAL_STREAM, p.change_interval_min, p.change_interval_max, counter=index)
+        at = now + np.maximum(np.round(seconds[:, 0] / p.dt).astype(np.int64), 1)
+        return np.where(at <= p.last_change_step, at, _NO_CHANGE)
+
+    def initial_state(self, keys: np.ndarray) -> State:
+        p = self.params
+        u = rng.uniform(keys, _START_STREAM, 2)
+        zeros = np.zeros(len(keys), dtype=np.int64)
+        return {
+            "theta": p.start_angle_max * (2.0 * u[:, 0] - 1.0),
+            "omega": p.start_rate_max * (2.0 * u[:, 1] - 1.0),
+            "target": self.draw_target(keys, zeros),
+            "changes": zeros,
+            "next_change": self.next_change(keys, zeros, zeros),
+        }
+
+    def step(self, state: State, action: np.ndarray) -> Transition:
+        p = self.params
+        keys = state["key"]
+        n = len(keys)
+        torque = p.max_torque * action[:, 0]
+        theta, omega = state["theta"], state["omega"]
+        for _ in range(p.substeps):
+            theta, omega = pendulum.step(theta, omega, torque, p.step_length, self.physics)
+        theta = np.mod(theta + np.pi, 2.0 * np.pi) - np.pi
+        target = state["target"]
+        energy = pendulum.energy(theta, omega, self.physics)
+        amplitude = pendulum.energy_amplitude(energy, self.physics)
+        error = amplitude - target
+        terms = {
+            "amplitude": -p.dt * np.abs(error) / np.pi,
+            "effort": -p.effort_weight * p.dt * action[:, 0] ** 2,
+        }
+        now = state["step"] + 1
+        changing = now >= state["next_change"]
+        new_state = {**state, "theta": theta, "omega": omega}
+        if changing.any():
+            index = state["changes"][changing] + 1
+            sub_keys = keys[changing]
+            new_target, changes, next_change = target.copy(), state["changes"].copy(), state["next_change"].copy()
+            new_target[changing] = self.draw_target(sub_keys, index)
+            changes[changing] = index
+            next_change[changing] = self.next_change(sub_keys, index, now[changing])
+            new_state.update(target=new_target, changes=changes, next_change=next_change)
+        info = {
+            "angle": theta,
+            "angular_velocity": omega,
+            "torque": torque,
+            "energy": energy,
+            "amplitude": amplitude,
+            "target_amplitude": target,
+            "target_energy": pendulum.amplitude_energy(target, self.physics),
+            "dt": np.full(n, p.dt),
+            "reward_terms": terms,
+            "is_success": np.abs(error) <= p.success_tolerance,
+        }
+        return Transition(new_state, terms["amplitude"] + terms["effort"], np.zeros(n, dtype=bool), info)
+
+    def observe(self, state: State) -> np.ndarray:
+        p = self.params
+        theta, omega, target = state["theta"], state["omega"], state["target"]
+        energy = pendulum.energy(theta, omega, self.physics)
+        target_energy = pendulum.amplitude_energy(target, self.physics)
+        obs = np.empty((len(theta), 6), np.float32)
+        obs[:, 0] = np.sin(theta)
+        obs[:, 1] = np.cos(theta)
+        obs[:, 2] = np.clip(omega / p.rate_scale, -1.0, 1.0)
+        obs[:, 3] = target / np.pi
+        obs[:, 4] = np.clip((energy - target_energy) / (2.0 * self.physics.weight_moment), -1.0, 1.0)
+        obs[:, 5] = (pendulum.energy_amplitude(energy, self.physics) - target) / np.pi
+        return obs
+
+
+class PendulumPumpEnv(VegymEnv[PendulumPumpParams]):
+    """Energy pumping: swing a damped pendulum at a target amplitude with a weak pivot torque.
+
+    ## Description
+    The simple pendulum of the chapter (8.5) with both printed sign errors fixed (PHYSICS.md section 7): a bob of
+    mass m on a rod of length L, angle theta from the downward vertical, ``theta'' = -(g/L) sin theta - b
+    theta' / (m L^2) + tau / (m L^2)``, integrated with ``substeps`` semi-implicit Euler steps per control step.
+    The torque is weak (``tau_max = 1 N m`` against ``m g L = 9.81 J``: it could hold the bob only 6 deg out of the
+    vertical), so it must pump energy in over several swings, in phase with the angular velocity, or take it out.
+    The target amplitude theta* changes at random times; the swing's amplitude is read from its energy,
+    ``theta_E = arccos(1 - E / (m g L))`` (pi once the pendulum can go over the top).
+
+    ## Action Space
+    ``Box(-1, 1, (1,), float32)``: the pivot torque ``tau = a tau_max`` (N m, anticlockwise positive), held over
+    the step.
+
+    ## Observation Space
+    ``Box([-1, -1, -1, 0, -1, -1], 1, (6,), float32)``: ``sin theta``, ``cos theta``; the angular velocity over
+    ``2 sqrt(g/L)`` (the speed at the bottom of a swing that just reaches the top), clipped to [-1, 1]; the
+    target amplitude over pi; the energy error ``(E - E*) / (2 m g L)`` with ``E* = m g L (1 - cos theta*)``,
+    clipped to [-1, 1]; the amplitude error ``(theta_E - theta*) / pi``.
+
+    ## Rewards
+    ``amplitude``: ``-dt |theta_E - theta*| / pi`` (per second of amplitude error, in units of pi); ``effort``:
+    ``-effort_weight dt a^2``. The terms of ``info["reward_terms"]``.
+
+    ## Starting State
+    Angle uniform in ``+-start_angle_max`` (30 deg), angular velocity uniform in ``+-start_rate_max`` (0.5
+    rad/s). Target amplitudes are uniform in ``[target_min, target_max]`` (15 to 120 deg) and change every
+    ``change_interval_min`` to ``change_interval_max`` seconds (10 to 20 s), but never within ``final_hold``
+    (15 s) of the planned end; the schedule comes from the episode seed alone, never from the actions.
+    Pumping a 15 deg swing up to 120 deg takes about 8 s (the torque's power is at most ``tau_max |omega|``).
+
+    ## Episode End
+    Never terminated; truncated after ``max_episode_steps`` (800 steps of 0.05 s, 40 s, when registered).
+    ``info["is_success"]`` at every step: ``|theta_E - theta*| <= success_tolerance`` (5 deg); at the last
+    step, for the final target. Over seeds 0-49 (``tests/test_pendulum_pump.py``) energy pumping ends on target
+    in every episode and is on target 83% of the time (mean return -1.58); random torques end on target in 2%
+    (-12.8).
+
+    ## Arguments
+    ``gymnasium.make("vegym/PendulumPump-v0", render_mode=None, **params)`` with the fields of
+    :class:`PendulumPumpParams`. ``info`` per step (SI, radians): ``angle`` (wrapped to [-pi, pi)),
+    ``angular_velocity``, ``torque`` (applied this step), ``energy`` (J), ``amplitude`` (theta_E),
+    ``target_amplitude`` and ``target_energy`` (the target of this step; the observation already shows a change
+    made at this step), ``dt``, ``reward_terms``, ``is_success``. Reference controller: energy pumping
+    ``tau = sat(k_E (E* - E) omega, +-tau_max)`` (``agents.analytic``).
+
+    ## Version History
+    * v0: initial version.
+    """
+
+    task_cls = PendulumPumpTask
+
+
+class PendulumPumpVectorEnv(VegymVectorEnv[PendulumPumpParams]):
+    """Native vector twin of :class:`PendulumPumpEnv` (same task code, NEXT_STEP autoreset)."""
+
+    task_cls = PendulumPumpTask

@@ -1,0 +1,243 @@
+"""Suspension-v0: a semi-active quarter-car damper over seeded undulating terrain, for ride comfort."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from gymnasium import spaces
+
+from vegym import rng
+from vegym.envs.base import State, Task, Transition, VegymEnv, VegymVectorEnv
+from vegym.params import Params, invalid, param
+from vegym.physics import suspension
+from vegym.physics.particle import STANDARD_GRAVITY
+from vegym.physics.suspension import SpringParams
+
+_TERRAIN_STREAM = 1
+
+
+@dataclass(frozen=True)
+class SuspensionParams(Params):
+    """Parameters of Suspension-v0 (SI units, y up; the travel is the spring length minus its static length)."""
+
+    mass: float = param(300.0, "m, sprung mass: a quarter of the car body (kg)", low=0.0, low_open=True)
+    modulus: float = param(8000.0, "lambda, spring modulus (N); stiffness k = lambda / l", low=0.0, low_open=True)
+    natural_length: float = param(0.4, "l, natural length of the spring (m)", low=0.0, low_open=True)
+    gravity: float = param(STANDARD_GRAVITY, "gravitational acceleration magnitude (m/s^2)", low=0.0)
+    damping_min: float = param(300.0, "c_min, softest damper setting (N s/m)", low=0.0)
+    damping_max: float = param(4000.0, "c_max, stiffest damper setting (N s/m)", low=0.0, low_open=True)
+    speed: float = param(10.0, "forward speed of the wheel over the terrain (m/s)", low=0.0, low_open=True)
+    n_waves: int = param(3, "sinusoids summed into the terrain profile", low=1, high=16)
+    wavelength_min: float = param(1.5, "shortest terrain wavelength (m)", low=0.0, low_open=True)
+    wavelength_max: float = param(30.0, "longest terrain wavelength (m)", low=0.0, low_open=True)
+    slope_min: float = param(0.005, "smallest slope amplitude A kappa of one sinusoid (A: its amplitude, m)", low=0.0)
+    slope_max: float = param(0.01, "largest slope amplitude A kappa of one sinusoid", low=0.0)
+    travel_limit: float = param(
+        0.04,
+        "bump stops: largest |spring length - static length| (m); beyond it the episode ends",
+        low=0.0,
+        low_open=True,
+    )
+    dt: float = param(0.01, "control and integration step (s)", low=0.0, low_open=True)
+    episode_steps: int = param(1000, "planned episode length (steps): the registered max_episode_steps", low=1)
+    accel_scale: float = param(
+        3.0, "body acceleration of a full unit of observation and comfort cost (m/s^2)", low=0.0, low_open=True
+    )
+    velocity_scale: float = param(1.0, "velocity of a full unit of observation (m/s)", low=0.0, low_open=True)
+    comfort_rms: float = param(0.8, "is_success: largest RMS body acceleration so far (m/s^2)", low=0.0)
+    bottom_out_penalty: float = param(1.0, "cost of hitting a bump stop, besides the rest of the episode's", low=0.0)
+
+    def validate(self) -> None:
+        if self.static_length <= 0.0:
+            raise invalid("modulus", self.modulus, f"(m g = {self.mass * self.gravity:g}, inf): the spring bottoms out")
+        if self.damping_min > self.damping_max:
+            raise invalid("damping_min", self.damping_min, f"[0, damping_max={self.damping_max}]")
+        if self.slope_min > self.slope_max:
+            raise invalid("slope_min", self.slope_min, f"[0, slope_max={self.slope_max}]")
+        if self.wavelength_min > self.wavelength_max:
+            raise invalid("wavelength_min", self.wavelength_min, f"(0, wavelength_max={self.wavelength_max}]")
+        stable = self.spring.max_stable_step(self.damping_max)
+        if self.dt >= stable:
+            raise invalid("dt", self.dt, f"(0, {stable:.4g}): semi-implicit Euler is unstable at damping_max")
+
+    @property
+    def spring(self) -> SpringParams:
+        """The spring-mass physics parameters."""
+        return SpringParams(
+            mass=self.mass, modulus=self.modulus, natural_length=self.natural_length, gravity=self.gravity
+        )
+
+    @property
+    def static_length(self) -> float:
+        """Spring length at rest on a level road, ``l - m g / k`` (m)."""
+        return self.spring.static_length
+
+
+class SuspensionTask(Task[SuspensionParams]):
+    """Batched logic of Suspension-v0 (see :class:`SuspensionEnv`)."""
+
+    params_cls = SuspensionParams
+    renderer = "vegym.render.suspension:SuspensionRenderer"
+
+    def __init__(self, params: SuspensionParams) -> None:
+        super().__init__(params)
+        self.spring = params.spring
+        self.static_length = params.static_length
+        self.observation_space = spaces.Box(-1.0, 1.0, (4,), np.float32)
+        self.action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
+
+    @property
+    def control_rate(self) -> float:
+        return 1.0 / self.params.dt
+
+    def initial_state(self, keys: np.ndarray) -> State:
+        p = self.params
+        n, j = len(keys), p.n_waves
+        u = rng.uniform(keys, _TERRAIN_STREAM, 3 * j)
+        wavelength = p.wavelength_min * (p.wavelength_max / p.wavelength_min) ** u[:, :j]
+        wavenumber = 2.0 * np.pi / wavelength
+        amplitude = (p.slope_min + (p.slope_max - p.slope_min) * u[:, j : 2 * j]) / wavenumber
+        phase = 2.0 * np.pi * u[:, 2 * j :]
+        start, slope = suspension.terrain(np.zeros(n), amplitude, wavenumber, phase)
+        base_velocity = slope * p.speed
+        return {
+            "amplitude": amplitude,
+            "wavenumber": wavenumber,
+            "phase": phase,
+            "offset": start,
+            "distance": np.zeros(n),
+            "height": np.full(n, self.static_length),
+            "velocity": base_velocity,
+            "base": np.zeros(n),
+            "base_velocity": base_velocity,
+            "acceleration": np.zeros(n),
+            "squared_acceleration": np.zeros(n),
+        }
+
+    def axle(self, state: State, distance: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Axle height relative to its start (the cumulative base displacement, m) and its velocity (m/s)."""
+        height, slope = suspension.terrain(distance, state["amplitude"], state["wavenumber"], state["phase"])
+        return height - state["offset"], slope * self.params.speed
+
+    def step(self, state: State, action: np.ndarray) -> Transition:
+        p = self.params
+        n = len(action)
+        damping = p.damping_min + 0.5 * (action[:, 0] + 1.0) * (p.damping_max - p.damping_min)
+        height, velocity, acceleration = suspension.step(
+            state["height"], state["velocity"], state["base"], state["base_velocity"], damping, p.dt, self.spring
+        )
+        distance = state["distance"] + p.speed * p.dt
+        new_base, new_base_velocity = self.axle(state, distance)
+        travel = height - new_base - self.static_length
+        bottomed = np.abs(travel) > p.travel_limit
+        squared = state["squared_acceleration"] + p.dt * acceleration * acceleration
+        elapsed = (state["step"] + 1) * p.dt
+        remaining = np.maximum(p.episode_steps - state["step"] - 1, 0) * p.dt
+        terms = {
+            "comfort": -p.dt * np.minimum((acceleration / p.accel_scale) ** 2, 1.0),
+            "bump_stop": np.where(bottomed, -(p.bottom_out_penalty + remaining), 0.0),
+        }
+        new_state = {
+            **state,
+            "distance": distance,
+            "height": height,
+            "velocity": velocity,
+            "base": new_base,
+            "base_velocity": new_base_velocity,
+            "acceleration": acceleration,
+            "squared_acceleration": squared,
+        }
+        rms = np.sqrt(squared / elapsed)
+        info = {
+            "body_height": height,
+            "body_velocity": velocity,
+            "body_acceleration": acceleration,
+            "base_height": new_base,
+            "base_velocity": new_base_velocity,
+            "travel": travel,
+            "damping": damping,
+            "distance": distance,
+            "rms_acceleration": rms,
+            "dt": np.full(n, p.dt),
+            "reward_terms": terms,
+            "is_success": ~bottomed & (rms <= p.comfort_rms),
+        }
+        return Transition(new_state, terms["comfort"] + terms["bump_stop"], bottomed, info)
+
+    def observe(self, state: State) -> np.ndarray:
+        p = self.params
+        velocity = state["velocity"]
+        obs = np.empty((len(velocity), 4), np.float32)
+        obs[:, 0] = np.clip((state["height"] - state["base"] - self.static_length) / p.travel_limit, -1.0, 1.0)
+        obs[:, 1] = np.clip(velocity / p.velocity_scale, -1.0, 1.0)
+        obs[:, 2] = np.clip((velocity - state["base_velocity"]) / p.velocity_scale, -1.0, 1.0)
+        obs[:, 3] = np.clip(state["acceleration"] / p.accel_scale, -1.0, 1.0)
+        return obs
+
+
+class SuspensionEnv(VegymEnv[SuspensionParams]):
+    """Semi-active suspension: set a quarter-car's damper at each step for ride comfort over undulating terrain.
+
+    ## Description
+    The moving spring of the chapter (8.6.2) in the corrected quarter-car form of PHYSICS.md section 8: a body of
+    mass m sits on a spring (modulus lambda, natural length l, stiffness ``k = lambda / l``) and a damper whose
+    foot is the axle of a wheel rolling at ``speed`` over a terrain of ``n_waves`` sinusoids. The axle height is
+    the cumulative base displacement ``y_b = terrain(x) - terrain(x_0)`` (not the book's per-step difference), and
+    the body follows ``dv/dt = -(k/m)(y - y_b - l) - (c/m)(v - v_b) - g``, one semi-implicit Euler step per
+    control step. The damper is semi-active: the agent sets its coefficient c within ``[c_min, c_max]`` but can
+    never push, only resist the relative velocity. A soft damper isolates the body from short bumps but lets it
+    resonate (natural frequency ``sqrt(k/m)``, 8.2 rad/s at the defaults) and hit the bump stops on long waves;
+    a stiff one transmits the short bumps. Terrain wavelengths span 1.5 to 30 m, so at 10 m/s the road shakes
+    the car from 0.26 to 5 times its natural frequency.
+
+    ## Action Space
+    ``Box(-1, 1, (1,), float32)``: the damper coefficient ``c = c_min + (a + 1)/2 (c_max - c_min)`` (N s/m),
+    held over the step.
+
+    ## Observation Space
+    ``Box(-1, 1, (4,), float32)``: suspension travel (spring length minus its static length) over
+    ``travel_limit``; body velocity v and relative velocity ``v - v_b`` (body minus axle) over
+    ``velocity_scale``; the body acceleration of the last step over ``accel_scale``. All clipped to [-1, 1];
+    the travel is inside it until the episode ends.
+
+    ## Rewards
+    ``comfort``: ``-dt min((a / accel_scale)^2, 1)`` with a the body acceleration over the step (a squared
+    acceleration cost, so a return is minus the time integral of the normalised squared acceleration).
+    ``bump_stop``: on hitting a bump stop, ``-(bottom_out_penalty + remaining planned time)``, which is at least
+    the most the rest of the episode could have cost, so ending the episode early never pays.
+
+    ## Starting State
+    The body at its static height above the axle, moving with it (no initial spring deflection or relative
+    velocity). The terrain is drawn from the episode seed: wavelengths log-uniform in ``[wavelength_min,
+    wavelength_max]``, slope amplitudes ``A kappa`` uniform in ``[slope_min, slope_max]`` (so the amplitude A grows
+    with the wavelength, as on real roads), phases uniform.
+
+    ## Episode End
+    Terminated when ``|travel| > travel_limit`` (a bump stop is hit); truncated after ``max_episode_steps``
+    (1000 steps of 0.01 s when registered). ``info["is_success"]`` at every step: no bump stop hit and the RMS
+    body acceleration since the start at most ``comfort_rms`` (0.8 m/s^2, where ISO 2631-1 starts calling a ride
+    uncomfortable; unweighted here); at the last step, the verdict on the whole drive. Over the first episodes
+    of seeds 0-49 (``tests/test_suspension.py``) the skyhook succeeds on 88% with a mean return of -0.52, random
+    actions on 46% with -0.85, and the best constant damper (mid-range) on 54% with -0.75; the softest damper
+    hits the bump stops on a third of the roads.
+
+    ## Arguments
+    ``gymnasium.make("vegym/Suspension-v0", render_mode=None, **params)`` with the fields of
+    :class:`SuspensionParams`. ``info`` per step (SI, y up): ``body_height``, ``body_velocity``,
+    ``body_acceleration`` (over the step), ``base_height`` and ``base_velocity`` (axle, relative to its start),
+    ``travel``, ``damping`` (c applied), ``distance`` travelled, ``rms_acceleration`` (since the start),
+    ``dt``, ``reward_terms``, ``is_success``. Reference controller: on-off skyhook, ``c_max`` when
+    ``v (v - v_b) > 0`` else ``c_min`` (``agents.analytic``).
+
+    ## Version History
+    * v0: initial version.
+    """
+
+    task_cls = SuspensionTask
+
+
+class SuspensionVectorEnv(VegymVectorEnv[SuspensionParams]):
+    """Native vector twin of :class:`SuspensionEnv` (same task code, NEXT_STEP autoreset)."""
+
+    task_cls = SuspensionTask

@@ -1,0 +1,137 @@
+"""Spring-mass with gravity and viscous damping on a moving base: the quarter-car of chapter 8.6 (8.89-8.98).
+
+Corrected forms from PHYSICS.md section 8. Hooke's law with modulus ``lambda`` and natural length ``l`` gives the
+stiffness ``k = lambda / l``. The book's per-step velocity factor ``k_d`` (8.96) is replaced by a viscous damper
+``c`` (N s/m, a rate, so the motion does not depend on the step), and the book's per-step terrain difference ``h``
+by the cumulative base displacement: the spring's foot rides at ``y_b(t) = terrain(x(t))``.
+
+Quarter-car, y up: a body of mass ``m`` at height ``y`` on top of a spring and a damper whose foot is the wheel
+axle at height ``y_b``, moving at ``v_b = terrain'(x) dx/dt``::
+
+    dv/dt = -(k/m) (y - y_b - l) - (c/m) (v - v_b) - g + u/m,    dy/dt = v
+
+integrated with semi-implicit Euler (``v`` first, then ``y`` with the new ``v``), which is stable for
+``(omega_n h)^2 + 2 (c/m) h < 4``. At rest on a level base ``y - y_b = l - m g / k``; the natural frequency is
+``omega_n = sqrt(k/m) = sqrt(lambda / (m l))`` and the period ``2 pi sqrt(m l / lambda)``.
+
+All functions take arrays with a leading batch axis (scalars broadcast) and never modify their inputs.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from vegym.params import Params, param
+from vegym.physics.particle import STANDARD_GRAVITY
+
+
+@dataclass(frozen=True)
+class SpringParams(Params):
+    """A mass on a linear spring (Hooke's law with modulus and natural length) under gravity."""
+
+    mass: float = param(2.0, "m, mass on the spring (kg)", low=0.0, low_open=True)
+    modulus: float = param(
+        80.0, "lambda, modulus of the spring (N); the tension is lambda e / l", low=0.0, low_open=True
+    )
+    natural_length: float = param(1.0, "l, natural length of the spring (m)", low=0.0, low_open=True)
+    gravity: float = param(STANDARD_GRAVITY, "gravitational acceleration magnitude (m/s^2)", low=0.0)
+
+    @property
+    def stiffness(self) -> float:
+        """``k = lambda / l`` (N/m)."""
+        return self.modulus / self.natural_length
+
+    @property
+    def natural_frequency(self) -> float:
+        """``omega_n = sqrt(k / m)`` (rad/s)."""
+        return math.sqrt(self.stiffness / self.mass)
+
+    @property
+    def period(self) -> float:
+        """Undamped period ``2 pi sqrt(m l / lambda)`` (s)."""
+        return 2.0 * math.pi / self.natural_frequency
+
+    @property
+    def static_length(self) -> float:
+        """Spring length at rest under the mass on a level base, ``l - m g / k`` (m)."""
+        return self.natural_length - self.mass * self.gravity / self.stiffness
+
+    def max_stable_step(self, damping: float) -> float:
+        """Largest semi-implicit Euler step (s) for the damper ``c``: the root of ``(omega_n h)^2 + 2 (c/m) h = 4``."""
+        beta, w2 = damping / self.mass, self.stiffness / self.mass
+        return (math.sqrt(beta * beta + 4.0 * w2) - beta) / w2
+
+
+def acceleration(
+    height: np.ndarray,
+    velocity: np.ndarray,
+    base: np.ndarray,
+    base_velocity: np.ndarray,
+    damping: np.ndarray,
+    params: SpringParams,
+    force: np.ndarray | float = 0.0,
+) -> np.ndarray:
+    """Body acceleration (m/s^2, y up) of the quarter-car: spring, damper ``c`` (N s/m), gravity, actuator ``u`` (N)."""
+    p = params
+    spring = -p.stiffness * (height - base - p.natural_length)
+    damper = -damping * (velocity - base_velocity)
+    return (spring + damper + force) / p.mass - p.gravity
+
+
+def step(
+    height: np.ndarray,
+    velocity: np.ndarray,
+    base: np.ndarray,
+    base_velocity: np.ndarray,
+    damping: np.ndarray,
+    dt: float,
+    params: SpringParams,
+    force: np.ndarray | float = 0.0,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """One semi-implicit Euler step of ``dt`` seconds with the base at its start-of-step height and velocity.
+
+    Returns the new height (m), the new velocity (m/s) and the acceleration applied over the step (m/s^2).
+    """
+    a = acceleration(height, velocity, base, base_velocity, damping, params, force)
+    new_velocity = velocity + dt * a
+    return height + dt * new_velocity, new_velocity, a
+
+
+def energy(height: np.ndarray, velocity: np.ndarray, base: np.ndarray, params: SpringParams) -> np.ndarray:
+    """Mechanical energy (J) with the base held at ``base``: ``m v^2 / 2 + m g y + k (y - y_b - l)^2 / 2``."""
+    p = params
+    extension = height - base - p.natural_length
+    return 0.5 * p.mass * velocity * velocity + p.mass * p.gravity * height + 0.5 * p.stiffness * extension * extension
+
+
+def transmissibility(omega: np.ndarray, damping: np.ndarray, params: SpringParams) -> np.ndarray:
+    """Steady-state ratio of body to base amplitude under sinusoidal base motion at ``omega`` (rad/s):
+    ``sqrt((k^2 + (c omega)^2) / ((k - m omega^2)^2 + (c omega)^2))``."""
+    k, m = params.stiffness, params.mass
+    cw2 = (np.asarray(damping) * np.asarray(omega)) ** 2
+    return np.sqrt((k * k + cw2) / ((k - m * np.asarray(omega) ** 2) ** 2 + cw2))
+
+
+def terrain(
+    distance: np.ndarray, amplitude: np.ndarray, wavenumber: np.ndarray, phase: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Height (m) and slope of an undulating terrain ``sum_j A_j sin(kappa_j x + phi_j)`` at ``distance`` x (n,).
+
+    ``amplitude`` (m), ``wavenumber`` (rad/m) and ``phase`` (rad) are (n, J) arrays, one row per terrain.
+    """
+    angle = wavenumber * distance[:, None] + phase
+    height = np.sum(amplitude * np.sin(angle), axis=-1)
+    slope = np.sum(amplitude * wavenumber * np.cos(angle), axis=-1)
+    return height, slope
+
+
+def skyhook_damping(body_velocity: np.ndarray, relative_velocity: np.ndarray, c_min: float, c_max: float) -> np.ndarray:
+    """Semi-active (on-off) skyhook: ``c_max`` where ``v (v - v_b) > 0``, else ``c_min`` (N s/m).
+
+    The damper can only resist the relative velocity ``v - v_b``; it is stiff when that force also opposes the
+    body's absolute velocity ``v``, as a damper to a fixed "sky" would, and soft otherwise.
+    """
+    return np.where(body_velocity * relative_velocity > 0.0, c_max, c_min)
