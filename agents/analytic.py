@@ -298,6 +298,26 @@ class ThreadVelocityFeedback(AnalyticController):
         return (-self.gain * velocities / p.max_force).reshape(n, -1)
 
 
+class AircraftDraftCompensatingAutopilot(AircraftAutopilot):
+    """The autopilot with draft feed-forward: the stronger reference on AircraftGusty-v0.
+
+    The vertical air velocity (steady draft plus the last gust) is inferred from the observation as the
+    vertical speed achieved on the last step minus the climb command given for it, and subtracted from the
+    altitude loop's command, ``v_y = clip(k_v y_err - w_est, -V_des, V_cli)``. The plain autopilot's steady
+    altitude error ``|w| / k_v`` then vanishes up to the gust noise. Speed and heading loops are unchanged.
+    """
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        p = self.params
+        action = super().act(obs)
+        air = (obs[:, 5] - obs[:, 6]) * p.vertical_speed_scale
+        climb = np.clip(
+            self.gains.climb_gain * obs[:, 0] * p.altitude_scale - air, -p.max_descent_rate, p.max_climb_rate
+        )
+        action[:, 1] = np.where(climb >= 0.0, climb / p.max_climb_rate, climb / p.max_descent_rate)
+        return action
+
+
 CONTROLLERS: dict[type[Task], Callable[[Any], AnalyticController]] = {
     BouncingBallTask: BouncingBallMyopic,
     ProjectileTask: ProjectileFiringSolution,

@@ -22,7 +22,7 @@ from gymnasium import spaces
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
-from agents.analytic import BouncingBallOracle, controller_for
+from agents.analytic import AircraftDraftCompensatingAutopilot, BouncingBallOracle, controller_for
 from agents.config import TrainConfig, load_resolved
 from agents.training import CONFIG_FILE, MODEL_FILE, normalize_path
 
@@ -94,6 +94,9 @@ def load_learned(path: Path) -> tuple[LearnedAgent, TrainConfig]:
 
 REFERENCE_AGENTS: dict[str, dict[str, AgentFactory]] = {
     "vegym/BouncingBall-v0": {"oracle": BouncingBallOracle},
+    "vegym/AircraftGusty-v0": {
+        "draft-compensating": lambda env: AircraftDraftCompensatingAutopilot(env.unwrapped.params)
+    },
 }
 """Stronger references than the analytic controller, per env (name -> factory); evaluated beside it."""
 

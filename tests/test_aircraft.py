@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import vegym  # noqa: F401
-from agents.analytic import controller_for
+from agents.analytic import AircraftDraftCompensatingAutopilot, controller_for
 from vegym import rng
 from vegym.envs.aircraft import AircraftEnvParams, AircraftTask
 from vegym.physics import aircraft
@@ -66,15 +66,10 @@ def test_gusty_autopilot_keeps_a_steady_altitude_error_that_the_observation_lets
     steady = np.abs(pilot["altitude_error"][-30:]).mean()
     expected = np.abs(pilot["draft"]).mean() / aircraft.AutopilotGains().climb_gain
     p: AircraftEnvParams = pilot["env"].unwrapped.params
-    controller = controller_for(pilot["env"])
+    compensating = AircraftDraftCompensatingAutopilot(p)
 
     def compensated(obs: np.ndarray) -> np.ndarray:
-        """The autopilot minus the inferred vertical air velocity: observed vertical speed - own climb command."""
-        action = controller.act(obs.astype(np.float64))
-        air = (obs[:, 5] - obs[:, 6]) * p.vertical_speed_scale
-        climb = np.clip(0.2 * obs[:, 0] * p.altitude_scale - air, -p.max_descent_rate, p.max_climb_rate)
-        action[:, 1] = np.where(climb >= 0.0, climb / p.max_climb_rate, climb / p.max_descent_rate)
-        return action.astype(np.float32)
+        return compensating.predict(obs)[0]
 
     agent = fly(GUSTY_ID, compensated)
     agent_steady = np.abs(agent["altitude_error"][-30:]).mean()
