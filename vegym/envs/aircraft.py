@@ -10,6 +10,7 @@ from gymnasium import spaces
 
 from vegym import rng
 from vegym.envs.base import Task, Transition, VegymEnv, VegymVectorEnv
+from vegym.envs.schedule import ChangeSchedule
 from vegym.params import Params, invalid, param
 from vegym.physics import aircraft
 from vegym.physics.aircraft import STANDARD_RATE, AircraftParams, AircraftState
@@ -18,8 +19,6 @@ _SETUP_STREAM = 1
 _DEMAND_STREAM = 2
 _INTERVAL_STREAM = 3
 _GUST_STREAM = 4
-_NO_CHANGE = np.iinfo(np.int64).max
-"""``next_change`` of an episode whose demand schedule has ended."""
 
 
 @dataclass(frozen=True)
@@ -76,14 +75,7 @@ class AircraftEnvParams(Params):
             )
         if self.speed_demand_max > self.max_speed:
             raise invalid("speed_demand_max", self.speed_demand_max, f"[speed_demand_min, max_speed={self.max_speed}]")
-        if not self.dt <= self.change_interval_min <= self.change_interval_max:
-            raise invalid(
-                "change_interval_min",
-                self.change_interval_min,
-                f"[dt={self.dt}, change_interval_max={self.change_interval_max}]",
-            )
-        if self.final_hold > self.episode_steps * self.dt:
-            raise invalid("final_hold", self.final_hold, f"[0, episode_steps * dt={self.episode_steps * self.dt}]")
+        _ = self.schedule  # raises ValueError if change_interval_min or final_hold is out of range
 
     @property
     def physics(self) -> AircraftParams:
@@ -109,9 +101,17 @@ class AircraftEnvParams(Params):
         return max(self.max_climb_rate, self.max_descent_rate) + self.draft_max + self.gust_amplitude
 
     @property
-    def last_change_step(self) -> int:
-        """Latest step at which the demand may change: ``episode_steps - final_hold / dt``."""
-        return self.episode_steps - int(math.ceil(self.final_hold / self.dt - 1e-9))
+    def schedule(self) -> ChangeSchedule:
+        """When the demand changes: every ``change_interval_min`` to ``change_interval_max`` s, never within
+        ``final_hold`` of the planned episode end."""
+        return ChangeSchedule.planned(
+            self.change_interval_min,
+            self.change_interval_max,
+            self.dt,
+            self.episode_steps,
+            self.final_hold,
+            _INTERVAL_STREAM,
+        )
 
 
 class AircraftTask(Task[AircraftEnvParams]):
@@ -123,6 +123,7 @@ class AircraftTask(Task[AircraftEnvParams]):
     def __init__(self, params: AircraftEnvParams) -> None:
         super().__init__(params)
         self.physics = params.physics
+        self.schedule = params.schedule
         low = np.array([-1, -1, -1, -1, 0, -1, -1, 0], np.float32)
         self.observation_space = spaces.Box(low, np.ones(8, np.float32), dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (3,), np.float32)
@@ -145,14 +146,6 @@ class AircraftTask(Task[AircraftEnvParams]):
             axis=-1,
         )
 
-    def next_change(self, keys: np.ndarray, index: np.ndarray, now: np.ndarray) -> np.ndarray:
-        """Step of the change that ends demand number ``index`` (n,), set at step ``now``: an interval uniform in
-        ``[change_interval_min, change_interval_max]`` later, or ``_NO_CHANGE`` past ``last_change_step``."""
-        p = self.params
-        seconds = rng.uniform_in(keys, _INTERVAL_STREAM, p.change_interval_min, p.change_interval_max, counter=index)
-        at = now + np.maximum(np.round(seconds[:, 0] / p.dt).astype(np.int64), 1)
-        return np.where(at <= p.last_change_step, at, _NO_CHANGE)
-
     def initial_state(self, keys: np.ndarray) -> dict[str, np.ndarray]:
         p = self.params
         n = len(keys)
@@ -167,9 +160,7 @@ class AircraftTask(Task[AircraftEnvParams]):
             "vertical_speed": np.zeros(n),
             "draft": p.draft_max * (2.0 * u[:, 3] - 1.0),
             "demand": self.draw_demand(keys, zeros),
-            "changes": zeros,
-            "last_change": zeros,
-            "next_change": self.next_change(keys, zeros, zeros),
+            **self.schedule.initial(keys),
         }
 
     @staticmethod
@@ -211,8 +202,6 @@ class AircraftTask(Task[AircraftEnvParams]):
             & (np.abs(errors[:, 1]) <= p.speed_tolerance)
             & (np.abs(errors[:, 2]) <= p.heading_tolerance)
         )
-        now = state["step"] + 1
-        changing = now >= state["next_change"]
         new_state = {
             **state,
             "position": plane.position,
@@ -220,21 +209,8 @@ class AircraftTask(Task[AircraftEnvParams]):
             "heading": plane.heading,
             "command": plane.command,
             "vertical_speed": climb,
+            **self.schedule.advance(state, state["step"] + 1, "demand", self.draw_demand),
         }
-        if changing.any():
-            index = state["changes"][changing] + 1
-            sub_keys, sub_now = keys[changing], now[changing]
-            new_demand, changes, last_change, next_change = (
-                demand.copy(),
-                state["changes"].copy(),
-                state["last_change"].copy(),
-                state["next_change"].copy(),
-            )
-            new_demand[changing] = self.draw_demand(sub_keys, index)
-            changes[changing] = index
-            last_change[changing] = sub_now
-            next_change[changing] = self.next_change(sub_keys, index, sub_now)
-            new_state.update(demand=new_demand, changes=changes, last_change=last_change, next_change=next_change)
         info = {
             "position": plane.position,
             "speed": plane.speed,

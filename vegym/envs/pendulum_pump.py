@@ -10,6 +10,7 @@ from gymnasium import spaces
 
 from vegym import rng
 from vegym.envs.base import State, Task, Transition, VegymEnv, VegymVectorEnv
+from vegym.envs.schedule import ChangeSchedule
 from vegym.params import Params, invalid, param
 from vegym.physics import pendulum
 from vegym.physics.particle import STANDARD_GRAVITY
@@ -18,8 +19,6 @@ from vegym.physics.pendulum import PendulumParams
 _START_STREAM = 1
 _TARGET_STREAM = 2
 _INTERVAL_STREAM = 3
-_NO_CHANGE = np.iinfo(np.int64).max
-"""``next_change`` of an episode whose target schedule has ended."""
 
 
 @dataclass(frozen=True)
@@ -47,14 +46,7 @@ class PendulumPumpParams(Params):
     def validate(self) -> None:
         if self.target_min > self.target_max:
             raise invalid("target_min", self.target_min, f"[0, target_max={self.target_max}]")
-        if not self.dt <= self.change_interval_min <= self.change_interval_max:
-            raise invalid(
-                "change_interval_min",
-                self.change_interval_min,
-                f"[dt={self.dt}, change_interval_max={self.change_interval_max}]",
-            )
-        if self.final_hold > self.episode_steps * self.dt:
-            raise invalid("final_hold", self.final_hold, f"[0, episode_steps * dt={self.episode_steps * self.dt}]")
+        _ = self.schedule  # raises ValueError if change_interval_min or final_hold is out of range
         stable = self.physics.max_stable_step()
         if self.step_length >= stable:
             raise invalid("substeps", self.substeps, f"(dt / {stable:.4g}, 1000]: semi-implicit Euler is unstable")
@@ -76,9 +68,17 @@ class PendulumPumpParams(Params):
         return 2.0 * math.sqrt(self.gravity / self.length)
 
     @property
-    def last_change_step(self) -> int:
-        """Latest step at which the target may change: ``episode_steps - final_hold / dt``."""
-        return self.episode_steps - int(math.ceil(self.final_hold / self.dt - 1e-9))
+    def schedule(self) -> ChangeSchedule:
+        """When the target changes: every ``change_interval_min`` to ``change_interval_max`` s, never within
+        ``final_hold`` of the planned episode end."""
+        return ChangeSchedule.planned(
+            self.change_interval_min,
+            self.change_interval_max,
+            self.dt,
+            self.episode_steps,
+            self.final_hold,
+            _INTERVAL_STREAM,
+        )
 
 
 class PendulumPumpTask(Task[PendulumPumpParams]):
@@ -90,6 +90,7 @@ class PendulumPumpTask(Task[PendulumPumpParams]):
     def __init__(self, params: PendulumPumpParams) -> None:
         super().__init__(params)
         self.physics = params.physics
+        self.schedule = params.schedule
         low = np.array([-1, -1, -1, 0, -1, -1], np.float32)
         self.observation_space = spaces.Box(low, np.ones(6, np.float32), dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
@@ -103,14 +104,6 @@ class PendulumPumpTask(Task[PendulumPumpParams]):
         p = self.params
         return rng.uniform_in(keys, _TARGET_STREAM, p.target_min, p.target_max, counter=index)[:, 0]
 
-    def next_change(self, keys: np.ndarray, index: np.ndarray, now: np.ndarray) -> np.ndarray:
-        """Step of the change that ends target number ``index`` (n,), set at step ``now``: an interval uniform in
-        ``[change_interval_min, change_interval_max]`` later, or ``_NO_CHANGE`` past ``last_change_step``."""
-        p = self.params
-        seconds = rng.uniform_in(keys, _INTERVAL_STREAM, p.change_interval_min, p.change_interval_max, counter=index)
-        at = now + np.maximum(np.round(seconds[:, 0] / p.dt).astype(np.int64), 1)
-        return np.where(at <= p.last_change_step, at, _NO_CHANGE)
-
     def initial_state(self, keys: np.ndarray) -> State:
         p = self.params
         u = rng.uniform(keys, _START_STREAM, 2)
@@ -119,8 +112,7 @@ class PendulumPumpTask(Task[PendulumPumpParams]):
             "theta": p.start_angle_max * (2.0 * u[:, 0] - 1.0),
             "omega": p.start_rate_max * (2.0 * u[:, 1] - 1.0),
             "target": self.draw_target(keys, zeros),
-            "changes": zeros,
-            "next_change": self.next_change(keys, zeros, zeros),
+            **self.schedule.initial(keys),
         }
 
     def step(self, state: State, action: np.ndarray) -> Transition:
@@ -140,17 +132,12 @@ class PendulumPumpTask(Task[PendulumPumpParams]):
             "amplitude": -p.dt * np.abs(error) / np.pi,
             "effort": -p.effort_weight * p.dt * action[:, 0] ** 2,
         }
-        now = state["step"] + 1
-        changing = now >= state["next_change"]
-        new_state = {**state, "theta": theta, "omega": omega}
-        if changing.any():
-            index = state["changes"][changing] + 1
-            sub_keys = keys[changing]
-            new_target, changes, next_change = target.copy(), state["changes"].copy(), state["next_change"].copy()
-            new_target[changing] = self.draw_target(sub_keys, index)
-            changes[changing] = index
-            next_change[changing] = self.next_change(sub_keys, index, now[changing])
-            new_state.update(target=new_target, changes=changes, next_change=next_change)
+        new_state = {
+            **state,
+            "theta": theta,
+            "omega": omega,
+            **self.schedule.advance(state, state["step"] + 1, "target", self.draw_target),
+        }
         info = {
             "angle": theta,
             "angular_velocity": omega,
