@@ -54,11 +54,34 @@ def test_elastic_bounces_keep_the_apex_at_the_drop_height() -> None:
     assert info["apex_height"] == pytest.approx(3.0, abs=1e-9)
 
 
-def test_zero_restitution_puts_the_ball_at_rest_and_terminates() -> None:
+def test_zero_restitution_puts_the_ball_at_rest_and_charges_every_skipped_bounce() -> None:
     env = gym.make(ENV_ID)
     env.reset(seed=0)
-    _, _, terminated, _, info = env.step(np.array([-1.0], dtype=np.float32))
+    task = env.unwrapped.task
+    targets = task.targets(env.unwrapped.state["key"], 10)[0]
+    env.step(np.array([1.0], dtype=np.float32))
+    _, reward, terminated, _, info = env.step(np.array([-1.0], dtype=np.float32))
     assert terminated and info["apex_height"] == pytest.approx(0.1)
+    assert info["reward_terms"]["apex_error"] == pytest.approx(-(targets[1] - 0.1) / 2.9, rel=1e-12)
+    assert info["reward_terms"]["rest"] == pytest.approx(-np.sum(targets[2:] - 0.1) / 2.9, rel=1e-12)
+    assert reward == pytest.approx(-np.sum(targets[1:] - 0.1) / 2.9, rel=1e-12)
+    assert not info["is_success"]
+    assert gym.spec(ENV_ID).max_episode_steps == BouncingBallParams().episode_bounces
+
+
+def test_coming_to_rest_early_never_pays() -> None:
+    env = gym.make(ENV_ID)
+    controller = controller_for(env)
+    for seed in range(50):
+        obs, _ = env.reset(seed=seed)
+        rest_now = gym.make(ENV_ID)
+        rest_now.reset(seed=seed)
+        _, quit_reward, *_ = rest_now.step(np.array([-1.0], dtype=np.float32))
+        total, done = 0.0, False
+        while not done:
+            obs, reward, terminated, truncated, _ = env.step(controller.predict(obs)[0])
+            total, done = total + reward, terminated or truncated
+        assert total > quit_reward
 
 
 def test_myopic_controller_reaches_every_reachable_target_to_1e_6() -> None:

@@ -30,6 +30,9 @@ class BouncingBallParams(Params):
     target_ratio_max: float = param(1.25, "largest ratio of a target to the previous one", low=0.0, low_open=True)
     lookahead: int = param(3, "number of future targets shown besides the current one", low=0, high=16)
     rest_speed: float = param(0.05, "rebound speed below which the ball is at rest, ending the episode (m/s)", low=0.0)
+    episode_bounces: int = param(
+        10, "planned episode length (bounces), the registered max_episode_steps: resting earlier is charged", low=1
+    )
     success_error: float = param(
         0.05, "is_success: mean apex error over the episode, in units of drop_height - radius, at most this", low=0.0
     )
@@ -117,8 +120,10 @@ class BouncingBallTask(Task[BouncingBallParams]):
         next_speed = -particle.impact_velocity(p.radius, rebound, p.radius, p.gravity)
         target = state["targets"][:, 0]
         error = np.abs(apex - target) / p.height_scale
-        error_sum = state["error_sum"] + error
         bounces = state["step"] + 1
+        rest_cost = self.rest_cost(state["key"], bounces, at_rest)
+        error_sum = state["error_sum"] + error + rest_cost
+        counted = np.where(at_rest, np.maximum(bounces, p.episode_bounces), bounces)
         new_target = self.next_target(state["key"], state["targets"][:, -1], state["step"] + p.lookahead + 1)
         new_state = {
             "speed": next_speed,
@@ -133,10 +138,24 @@ class BouncingBallTask(Task[BouncingBallParams]):
             "target_height": target,
             "radius": np.full_like(speed, p.radius),
             "gravity": np.full_like(speed, p.gravity),
-            "reward_terms": {"apex_error": -error},
-            "is_success": error_sum / bounces <= p.success_error,
+            "reward_terms": {"apex_error": -error, "rest": -rest_cost},
+            "is_success": error_sum / counted <= p.success_error,
         }
-        return Transition(new_state, -error, at_rest, info)
+        return Transition(new_state, -error - rest_cost, at_rest, info)
+
+    def rest_cost(self, keys: np.ndarray, bounces: np.ndarray, at_rest: np.ndarray) -> np.ndarray:
+        """Normalised apex error of every planned bounce left after ``bounces`` (n,), for balls coming to rest.
+
+        A ball at rest stays at ``h = radius``: charging the errors of the bounces it skips keeps resting from
+        being a way out of the remaining targets (all rewards are negative). Zero where not at rest.
+        """
+        p = self.params
+        cost = np.zeros(len(keys))
+        if at_rest.any():
+            targets = self.targets(keys[at_rest], p.episode_bounces)
+            skipped = np.arange(p.episode_bounces)[None, :] >= bounces[at_rest][:, None]
+            cost[at_rest] = np.sum(np.where(skipped, targets - p.radius, 0.0), axis=1) / p.height_scale
+        return cost
 
     def observe(self, state: dict[str, np.ndarray]) -> np.ndarray:
         p = self.params
@@ -194,7 +213,9 @@ class BouncingBallEnv(VegymEnv[BouncingBallParams]):
     apex heights and ``H = drop_height - radius``.
 
     ## Rewards
-    ``-|apex - target| / H`` per bounce (``info["reward_terms"]["apex_error"]``).
+    ``-|apex - target| / H`` per bounce (``info["reward_terms"]["apex_error"]``). A ball that comes to rest
+    before ``episode_bounces`` is also charged the error of every planned bounce it skips, as if it lay at
+    ``h = r`` for them (term ``rest``), so ending the episode early never pays.
 
     ## Starting State
     Ball released at rest from ``drop_height``. The first target is uniform in ``[target_min, target_max]``;
@@ -204,8 +225,8 @@ class BouncingBallEnv(VegymEnv[BouncingBallParams]):
 
     ## Episode End
     Terminated when the ball comes to rest (rebound speed below ``rest_speed``, e.g. e = 0); truncated after
-    ``max_episode_steps`` bounces (10 when registered). ``info["is_success"]``: the mean apex error so far, in
-    units of H, is at most ``success_error``.
+    ``max_episode_steps`` bounces (10 when registered, equal to ``episode_bounces``). ``info["is_success"]``: the
+    mean apex error so far (over all planned bounces once at rest), in units of H, is at most ``success_error``.
 
     ## Arguments
     ``gymnasium.make("vegym/BouncingBall-v0", render_mode=None, **params)`` with the fields of
