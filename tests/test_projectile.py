@@ -58,8 +58,26 @@ def test_info_is_the_exact_shot_in_si_units() -> None:
     assert info["flight_time"] == pytest.approx(t[0], rel=1e-12)
     miss = np.hypot(*(info["landing_point"] - info["target"])[[0, 2]])
     assert info["miss_distance"] == pytest.approx(miss, rel=1e-12)
-    assert reward == pytest.approx(-miss / p.target_distance_max + (p.hit_bonus if miss <= p.hit_radius else 0.0))
+    bonus = p.hit_bonus * (1.0 - (miss / p.hit_radius) ** 2) if miss <= p.hit_radius else 0.0
+    assert reward == pytest.approx(-miss / p.target_distance_max + bonus)
     assert info["wind"][1] == 0.0 and info["gravity"] == 9.81
+
+
+def test_hit_bonus_is_full_at_the_centre_and_falls_to_zero_at_the_rim() -> None:
+    env = gym.make_vec(ENV_ID, num_envs=200, vectorization_mode="vector_entry_point")
+    controller = controller_for(env)
+    obs, _ = env.reset(seed=2)
+    action = controller.predict(obs)[0]
+    _, _, _, _, info = env.step(action)
+    np.testing.assert_allclose(info["reward_terms"]["hit"], 1.0, atol=1e-6)
+    action[:, 2] -= 0.1  # 1.25 m/s slower: short of the target, by up to a few metres
+    obs, _ = env.reset(seed=2)
+    _, _, _, _, info = env.step(action)
+    miss, hit_term = info["miss_distance"], info["reward_terms"]["hit"]
+    inside = miss <= 2.0
+    assert inside.any() and (~inside).any()
+    np.testing.assert_allclose(hit_term[inside], 1.0 - (miss[inside] / 2.0) ** 2, rtol=1e-12)
+    assert np.all(hit_term[~inside] == 0.0) and np.all(info["is_success"] == inside)
 
 
 def test_targets_beyond_the_reachable_envelope_are_rejected() -> None:

@@ -36,8 +36,10 @@ class ProjectileEnvParams(Params):
     wind_speed_max: float = param(5.0, "largest horizontal wind speed (m/s); direction uniform", low=0.0)
     speed_min: float = param(5.0, "slowest launch speed (m/s, relative to the air)", low=0.0)
     speed_max: float = param(30.0, "fastest launch speed (m/s, relative to the air)", low=0.0, low_open=True)
-    hit_radius: float = param(1.0, "a landing within this horizontal distance of the target is a hit (m)", low=0.0)
-    hit_bonus: float = param(1.0, "reward added for a hit", low=0.0)
+    hit_radius: float = param(
+        2.0, "a landing within this horizontal distance of the target is a hit (m)", low=0.0, low_open=True
+    )
+    hit_bonus: float = param(1.0, "reward for a dead-centre hit; (1 - (miss / hit_radius)^2) of it for a hit", low=0.0)
 
     def validate(self) -> None:
         if self.launch_height_min < self.radius:
@@ -149,7 +151,7 @@ class ProjectileTask(Task[ProjectileEnvParams]):
         miss = np.hypot(landing[:, 0] - state["target"][:, 0], landing[:, 2] - state["target"][:, 2])
         hit = miss <= p.hit_radius
         miss_term = -miss / p.target_distance_max
-        hit_term = np.where(hit, p.hit_bonus, 0.0)
+        hit_term = np.where(hit, p.hit_bonus * (1.0 - (miss / p.hit_radius) ** 2), 0.0)
         info = {
             "launch_position": state["launch_position"],
             "launch_velocity": velocity,
@@ -201,8 +203,9 @@ class ProjectileEnv(VegymEnv[ProjectileEnvParams]):
     along and across the line of fire over ``wind_speed_max`` (or 1 m/s without wind).
 
     ## Rewards
-    ``-miss / target_distance_max`` (term ``miss``) plus ``hit_bonus`` if the landing point is within
-    ``hit_radius`` of the target (term ``hit``); ``miss`` is the horizontal distance.
+    ``-miss / target_distance_max`` (term ``miss``) plus, for a landing within ``hit_radius`` of the target,
+    ``hit_bonus * (1 - (miss / hit_radius)^2)`` (term ``hit``: full at the centre, zero at the rim, so the
+    reward is continuous and sharpest near the target); ``miss`` is the horizontal distance.
 
     ## Starting State
     Launch height, target distance, target bearing, wind speed and wind direction uniform in their ranges.

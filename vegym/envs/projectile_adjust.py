@@ -162,8 +162,9 @@ class ProjectileAdjustEnv(VegymEnv[ProjectileAdjustParams]):
     the shot's three actions. ``low`` is 0 for the first three entries and the flags, -1 elsewhere.
 
     ## Rewards
-    Per shot as Projectile-v0: ``-miss / target_distance_max`` (term ``miss``) plus ``hit_bonus`` for a
-    landing within ``hit_radius`` of the target (term ``hit``); a hit ends the episode, so early hits pay.
+    Per shot as Projectile-v0: ``-miss / target_distance_max`` (term ``miss``) plus, for a landing within
+    ``hit_radius`` of the target, ``hit_bonus * (1 - (miss / hit_radius)^2)`` (term ``hit``); a hit ends the
+    episode, so early hits pay.
 
     ## Starting State
     As Projectile-v0 (the same draws: the same seed gives the same launcher, target and wind), with no shot
