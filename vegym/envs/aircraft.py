@@ -10,19 +10,18 @@ from gymnasium import spaces
 
 from vegym import rng
 from vegym.envs.base import Task, Transition, VegymEnv, VegymVectorEnv
-from vegym.envs.schedule import ChangeSchedule
+from vegym.envs.schedule import ScheduledParams
 from vegym.params import Params, invalid, param
 from vegym.physics import aircraft
 from vegym.physics.aircraft import STANDARD_RATE, AircraftParams, AircraftState
 
 _SETUP_STREAM = 1
 _DEMAND_STREAM = 2
-_INTERVAL_STREAM = 3
 _GUST_STREAM = 4
 
 
 @dataclass(frozen=True)
-class AircraftEnvParams(Params):
+class AircraftEnvParams(ScheduledParams, Params):
     """Parameters of Aircraft-v0 and AircraftGusty-v0 (SI units, radians; altitudes are y)."""
 
     dt: float = param(1.0, "control step (s)", low=0.0, high=10.0, low_open=True)
@@ -99,19 +98,6 @@ class AircraftEnvParams(Params):
         """Largest possible climb or descent rate, drafts and gusts included (m/s): the unit of the observed
         vertical speeds."""
         return max(self.max_climb_rate, self.max_descent_rate) + self.draft_max + self.gust_amplitude
-
-    @property
-    def schedule(self) -> ChangeSchedule:
-        """When the demand changes: every ``change_interval_min`` to ``change_interval_max`` s, never within
-        ``final_hold`` of the planned episode end."""
-        return ChangeSchedule.planned(
-            self.change_interval_min,
-            self.change_interval_max,
-            self.dt,
-            self.episode_steps,
-            self.final_hold,
-            _INTERVAL_STREAM,
-        )
 
 
 class AircraftTask(Task[AircraftEnvParams]):

@@ -10,7 +10,7 @@ from gymnasium import spaces
 
 from vegym import rng
 from vegym.envs.base import State, Task, Transition, VegymEnv, VegymVectorEnv
-from vegym.envs.schedule import ChangeSchedule
+from vegym.envs.schedule import ScheduledParams
 from vegym.params import Params, invalid, param
 from vegym.physics import pendulum
 from vegym.physics.particle import STANDARD_GRAVITY
@@ -18,11 +18,10 @@ from vegym.physics.pendulum import PendulumParams
 
 _START_STREAM = 1
 _TARGET_STREAM = 2
-_INTERVAL_STREAM = 3
 
 
 @dataclass(frozen=True)
-class PendulumPumpParams(Params):
+class PendulumPumpParams(ScheduledParams, Params):
     """Parameters of PendulumPump-v0 (SI units, radians; angles from the downward vertical)."""
 
     length: float = param(1.0, "L, rod length (m)", low=0.0, low_open=True)
@@ -66,19 +65,6 @@ class PendulumPumpParams(Params):
         """Angular velocity of a full unit of observation: ``2 sqrt(g / L)`` (rad/s), the speed at the bottom of a
         swing that just reaches the top."""
         return 2.0 * math.sqrt(self.gravity / self.length)
-
-    @property
-    def schedule(self) -> ChangeSchedule:
-        """When the target changes: every ``change_interval_min`` to ``change_interval_max`` s, never within
-        ``final_hold`` of the planned episode end."""
-        return ChangeSchedule.planned(
-            self.change_interval_min,
-            self.change_interval_max,
-            self.dt,
-            self.episode_steps,
-            self.final_hold,
-            _INTERVAL_STREAM,
-        )
 
 
 class PendulumPumpTask(Task[PendulumPumpParams]):

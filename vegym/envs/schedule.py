@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -76,3 +77,24 @@ class ChangeSchedule:
         updates["last_change"][changing] = at
         updates["next_change"][changing] = self.next_change(keys, index, at)
         return updates
+
+
+class ScheduledParams:
+    """Mixin for a params dataclass with the fields ``change_interval_min``, ``change_interval_max`` (s), ``dt``
+    (s), ``episode_steps`` and ``final_hold`` (s): their :class:`ChangeSchedule` as a derived property."""
+
+    schedule_stream: ClassVar[int] = 3
+    """Random stream of the change intervals."""
+
+    @property
+    def schedule(self: Any) -> ChangeSchedule:
+        """When the demand changes: every ``change_interval_min`` to ``change_interval_max`` s, never within
+        ``final_hold`` of the planned episode end. Raises ``ValueError`` for values that do not fit."""
+        return ChangeSchedule.planned(
+            self.change_interval_min,
+            self.change_interval_max,
+            self.dt,
+            self.episode_steps,
+            self.final_hold,
+            self.schedule_stream,
+        )
