@@ -22,6 +22,7 @@ from matplotlib.patches import Circle
 
 from agents.config import env_name
 from agents.evaluation import AgentFactory, EvalResult
+from vegym.envs.projectile import ProjectileTask
 
 MAX_GIF_FRAMES = 100
 MAX_GIF_SECONDS = 10.0
@@ -82,15 +83,10 @@ def plot_projectile(results: Sequence[EvalResult], params: Any) -> Figure:
     ax = fig.subplots()
     radius = 0.0
     for r in results:
-        offsets = []
-        for ep in r.episodes:
-            info = ep.infos[-1]
-            start, target, landing = info["launch_position"], info["target"], info["landing_point"]
-            along = np.array([target[0] - start[0], target[2] - start[2]])
-            along /= np.linalg.norm(along)
-            miss = np.array([landing[0] - target[0], landing[2] - target[2]])
-            offsets.append([miss @ along, miss @ np.array([-along[1], along[0]])])
-        offsets_arr = np.array(offsets)
+        shots = {k: np.array([ep.infos[-1][k] for ep in r.episodes]) for k in ("launch_position", "target")}
+        miss = np.array([ep.infos[-1]["landing_point"] for ep in r.episodes]) - shots["target"]
+        _, _, (along, across) = ProjectileTask.target_frame(shots)
+        offsets_arr = np.stack([np.sum(miss * along, axis=1), np.sum(miss * across, axis=1)], axis=-1)
         ax.plot(offsets_arr[:, 0], offsets_arr[:, 1], "o", alpha=0.7, label=r.agent)
         radius = max(radius, float(np.abs(offsets_arr).max()))
     ax.add_patch(Circle((0.0, 0.0), params.hit_radius, fill=False, color="k", label="hit radius"))
