@@ -12,7 +12,8 @@ from __future__ import annotations
 
 import abc
 import importlib
-from collections.abc import Callable, Mapping
+import math
+from collections.abc import Mapping
 from typing import Any, ClassVar, Generic, NamedTuple, TypeVar
 
 import gymnasium as gym
@@ -77,36 +78,38 @@ class Task(abc.ABC, Generic[P]):
         """Observations (n, obs_dim), float32, inside ``observation_space``."""
 
 
-def tree_map(fn: Callable[..., Any], tree: Any, *rest: Any) -> Any:
-    """Apply ``fn`` to the arrays of nested dicts, keeping the structure."""
-    if isinstance(tree, Mapping):
-        return {k: tree_map(fn, tree[k], *(r[k] for r in rest)) for k in tree}
-    return fn(tree, *rest)
-
-
-def _scalar_or_array(x: np.ndarray) -> Any:
-    if x.ndim > 0:
-        return x.copy()
-    if x.dtype == np.bool_:
-        return bool(x)
-    if np.issubdtype(x.dtype, np.integer):
-        return int(x)
-    return float(x)
+def first_of_batch(info: Info) -> Info:
+    """Row 0 of every array of a batched (nested) info dict: Python scalars for 1-d arrays, copies otherwise."""
+    out: Info = {}
+    for k, v in info.items():
+        if isinstance(v, dict):
+            out[k] = first_of_batch(v)
+        elif v.ndim == 1:
+            out[k] = v.item(0)
+        else:
+            out[k] = v[0].copy()
+    return out
 
 
 def check_actions(action: Any, space: spaces.Box, batch_shape: tuple[int, ...]) -> np.ndarray:
-    """Actions as float64 of shape ``batch_shape + space.shape``; ValueError on NaN/inf or out of range."""
-    a = np.asarray(action, dtype=np.float64)
+    """Actions as a new float64 array of shape ``batch_shape + space.shape``; ValueError on NaN/inf or out of range.
+
+    Values beyond [-1, 1] by at most ``ACTION_TOLERANCE`` are clipped to it.
+    """
+    a = np.array(action, dtype=np.float64)
     expected = batch_shape + space.shape
     if a.shape != expected:
-        if a.size != int(np.prod(expected)):
+        if a.size != math.prod(expected):
             raise ValueError(f"action has shape {a.shape}; expected {expected}")
         a = a.reshape(expected)
-    if not np.all(np.isfinite(a)):
-        raise ValueError(f"action contains NaN or inf: {np.asarray(action)!r}")
-    if np.any(np.abs(a) > 1.0 + ACTION_TOLERANCE):
+    bound = np.abs(a).max()  # NaN propagates, so one comparison rejects NaN, inf and out-of-range values
+    if not bound <= 1.0 + ACTION_TOLERANCE:
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"action contains NaN or inf: {np.asarray(action)!r}")
         raise ValueError(f"action {np.asarray(action)!r} is outside the action space [-1, 1]")
-    return np.clip(a, -1.0, 1.0)
+    if bound > 1.0:
+        np.clip(a, -1.0, 1.0, out=a)
+    return a
 
 
 def load_object(path: str) -> Any:
@@ -159,7 +162,7 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
         a = check_actions(action, self.action_space, (1,))
         transition = self.task.step(self.state, a)
         self.state = {**transition.state, "key": self.state["key"], "step": self.state["step"] + 1}
-        info = tree_map(lambda x: _scalar_or_array(x[0]), transition.info)
+        info = first_of_batch(transition.info)
         if self.render_mode is not None:
             self._get_renderer().record(self.state, info)
             if self.render_mode == "human":
@@ -278,9 +281,15 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         written in place, since earlier states and returned infos may share them."""
         fresh = self._fresh(keys)
         out = dict(state)
+        if len(keys) == self.num_envs:  # every sub-env restarts: take the fresh arrays, nothing to merge
+            for k, v in fresh.items():
+                out[k] = v.astype(state[k].dtype, copy=False)
+            return out
+        rows = np.flatnonzero(mask)
         for k, v in fresh.items():
-            out[k] = state[k].copy()
-            out[k][mask] = v
+            merged = state[k].copy()
+            merged[rows] = v
+            out[k] = merged
         return out
 
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, Info]:
