@@ -2,22 +2,41 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 from gymnasium import spaces
+from numba import njit
 
 from vegym import rng
 from vegym.envs.base import State, Task, Transition, VegymEnv, VegymVectorEnv
 from vegym.params import Params, invalid, param
 from vegym.physics import wheel
-from vegym.physics.wheel import Pose, WheelParams
+from vegym.physics.wheel import WheelParams
 
 _SETUP_STREAM = 1
 OBS_PER_WAYPOINT = 3
 """Observation entries per shown waypoint: normalised distance, sin and cos of the relative bearing."""
 SHOWN_WAYPOINTS = 2
 """The current waypoint and the one after it are observed."""
+REWARD_TERMS = ("progress", "waypoint", "time", "effort", "exit")
+STEP_CONSTANTS = (
+    "max_speed",
+    "max_acceleration",
+    "dt",
+    "max_yaw_rate",
+    "radius",
+    "half_size",
+    "capture_radius",
+    "progress_weight",
+    "waypoint_bonus",
+    "time_penalty",
+    "effort_penalty",
+    "exit_penalty",
+)
+"""Parameters the step kernel reads, in the order of its constants array (SI units, see the fields)."""
+"""Names of ``info["reward_terms"]``, in the order of the step kernel's rows."""
 
 
 @dataclass(frozen=True)
@@ -67,14 +86,107 @@ class SteerableWheelParams(Params):
         return float(np.sqrt(2.0) * self.arena_size)
 
 
+@njit(cache=True)
+def _point_segment_distance(px: float, pz: float, sx: float, sz: float, ex: float, ez: float) -> float:
+    """Distance (m) from the point ``(px, pz)`` to the segment from ``(sx, sz)`` to ``(ex, ez)``."""
+    dx, dz = ex - sx, ez - sz
+    qx, qz = px - sx, pz - sz
+    length2 = dx * dx + dz * dz
+    t = min(max((qx * dx + qz * dz) / length2, 0.0), 1.0) if length2 > 0.0 else 0.0
+    return math.hypot(qx - t * dx, qz - t * dz)
+
+
+@njit(cache=True)
+def _segment_distances(point: np.ndarray, start: np.ndarray, end: np.ndarray) -> np.ndarray:
+    out = np.empty(len(point))
+    for i in range(len(point)):
+        out[i] = _point_segment_distance(point[i, 0], point[i, 1], start[i, 0], start[i, 1], end[i, 0], end[i, 1])
+    return out
+
+
 def segment_distance(point: np.ndarray, start: np.ndarray, end: np.ndarray) -> np.ndarray:
     """Distance (n,) from points (n, 2) to the segments ``start``-``end`` (n, 2) (a point if they coincide)."""
-    sx, sz = end[:, 0] - start[:, 0], end[:, 1] - start[:, 1]
-    px, pz = point[:, 0] - start[:, 0], point[:, 1] - start[:, 1]
-    length2 = sx * sx + sz * sz
-    t = np.divide(px * sx + pz * sz, length2, out=np.zeros_like(length2), where=length2 > 0)
-    np.clip(t, 0.0, 1.0, out=t)
-    return np.hypot(px - t * sx, pz - t * sz)
+    return _segment_distances(*(np.ascontiguousarray(a, dtype=np.float64) for a in (point, start, end)))
+
+
+@njit(cache=True)
+def _step_kernel(
+    action: np.ndarray,
+    position: np.ndarray,
+    heading: np.ndarray,
+    roll: np.ndarray,
+    speed: np.ndarray,
+    waypoints: np.ndarray,
+    index: np.ndarray,
+    c: np.ndarray,
+) -> tuple[np.ndarray, ...]:
+    """The whole step, fused per episode; ``c`` holds the parameters named in ``STEP_CONSTANTS``, in that order."""
+    max_speed, max_acceleration, dt, max_yaw_rate = c[0], c[1], c[2], c[3]
+    radius, half_size, capture_radius = c[4], c[5], c[6]
+    progress_weight, waypoint_bonus, time_penalty, effort_penalty, exit_penalty = c[7], c[8], c[9], c[10], c[11]
+    n, last = len(action), waypoints.shape[1] - 1
+    new_position, new_heading, new_roll = np.empty((n, 2)), np.empty(n), np.empty(n)
+    new_speed, steer, new_index = np.empty(n), np.empty(n), np.empty(n, np.int64)
+    terms, reward = np.empty((5, n)), np.empty(n)
+    success, terminated = np.empty(n, np.bool_), np.empty(n, np.bool_)
+    dv = max_acceleration * dt
+    for i in range(n):
+        command = 0.5 * max_speed * (action[i, 0] + 1.0)
+        v = min(max(command, speed[i] - dv), speed[i] + dv)
+        yaw_rate = max_yaw_rate * action[i, 1]
+        sx, sz = position[i, 0], position[i, 1]
+        ex, ez, new_heading[i], new_roll[i] = wheel.arc_step(sx, sz, heading[i], roll[i], v, yaw_rate, dt, radius)
+        k = index[i]
+        tx, tz = waypoints[i, min(k, last), 0], waypoints[i, min(k, last), 1]
+        progress = math.hypot(tx - sx, tz - sz) - math.hypot(tx - ex, tz - ez)
+        while (
+            k <= last
+            and _point_segment_distance(waypoints[i, k, 0], waypoints[i, k, 1], sx, sz, ex, ez) <= capture_radius
+        ):
+            k += 1
+        done = k > last
+        outside = (abs(ex) > half_size or abs(ez) > half_size) and not done
+        terms[0, i] = progress_weight * progress
+        terms[1, i] = waypoint_bonus * (k - index[i])
+        terms[2, i] = -time_penalty * dt
+        terms[3, i] = -effort_penalty * dt * action[i, 1] ** 2
+        terms[4, i] = -exit_penalty if outside else 0.0
+        reward[i] = terms[0, i] + terms[1, i] + terms[2, i] + terms[3, i] + terms[4, i]
+        new_position[i, 0], new_position[i, 1] = ex, ez
+        new_speed[i], steer[i], new_index[i] = v, yaw_rate * dt, k
+        success[i], terminated[i] = done, done or outside
+    return new_position, new_heading, new_roll, new_speed, steer, new_index, terms, reward, success, terminated
+
+
+@njit(cache=True)
+def _observe_kernel(
+    position: np.ndarray,
+    heading: np.ndarray,
+    speed: np.ndarray,
+    waypoints: np.ndarray,
+    index: np.ndarray,
+    diagonal: float,
+    max_speed: float,
+) -> np.ndarray:
+    n, n_waypoints = len(index), waypoints.shape[1]
+    obs = np.empty((n, OBS_PER_WAYPOINT * SHOWN_WAYPOINTS + 2), np.float32)
+    for i in range(n):
+        sin_h, cos_h = math.sin(heading[i]), math.cos(heading[i])
+        for j in range(SHOWN_WAYPOINTS):
+            w = min(index[i] + j, n_waypoints - 1)
+            dx, dz = waypoints[i, w, 0] - position[i, 0], waypoints[i, w, 1] - position[i, 1]
+            ahead, leftward = dx * sin_h + dz * cos_h, dx * cos_h - dz * sin_h
+            distance = math.hypot(ahead, leftward)
+            column = OBS_PER_WAYPOINT * j
+            obs[i, column] = min(distance / diagonal, 1.0)
+            if distance > 0.0:
+                obs[i, column + 1] = min(max(leftward / distance, -1.0), 1.0)
+                obs[i, column + 2] = min(max(ahead / distance, -1.0), 1.0)
+            else:
+                obs[i, column + 1], obs[i, column + 2] = 0.0, 1.0
+        obs[i, -2] = speed[i] / max_speed
+        obs[i, -1] = index[i] / n_waypoints
+    return obs
 
 
 class SteerableWheelTask(Task[SteerableWheelParams]):
@@ -85,11 +197,11 @@ class SteerableWheelTask(Task[SteerableWheelParams]):
 
     def __init__(self, params: SteerableWheelParams) -> None:
         super().__init__(params)
-        self.wheel = params.wheel
         per_waypoint_low = [0.0, -1.0, -1.0] * SHOWN_WAYPOINTS
         low = np.array([*per_waypoint_low, 0.0, 0.0], np.float32)
         self.observation_space = spaces.Box(low, np.ones_like(low), dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
+        self._constants = np.array([getattr(params, name) for name in STEP_CONSTANTS])
 
     @property
     def control_rate(self) -> float:
@@ -102,91 +214,42 @@ class SteerableWheelTask(Task[SteerableWheelParams]):
         points = (p.half_size - p.waypoint_margin) * (2.0 * u[:, 1:] - 1.0)
         zeros = np.zeros(n)
         return {
-            "position": points[:, :2],
+            "position": np.ascontiguousarray(points[:, :2]),
             "heading": np.pi * (2.0 * u[:, 0] - 1.0),
             "roll": zeros,
             "speed": zeros.copy(),
-            "waypoints": points[:, 2:].reshape(n, p.n_waypoints, 2),
+            "waypoints": np.ascontiguousarray(points[:, 2:]).reshape(n, p.n_waypoints, 2),
             "index": np.zeros(n, dtype=np.int64),
         }
 
     def step(self, state: State, action: np.ndarray) -> Transition:
         p = self.params
+        position, heading, roll, speed, steer, index, terms, reward, success, terminated = _step_kernel(
+            action, state["position"], state["heading"], state["roll"], state["speed"], state["waypoints"],
+            state["index"], self._constants,
+        )  # fmt: skip
         n = len(action)
-        command = 0.5 * p.max_speed * (action[:, 0] + 1.0)
-        dv = p.max_acceleration * p.dt
-        speed = np.clip(command, state["speed"] - dv, state["speed"] + dv)
-        yaw_rate = p.max_yaw_rate * action[:, 1]
-        start = state["position"]
-        pose = Pose(start[:, 0], start[:, 1], state["heading"], state["roll"])
-        pose = wheel.steer_step(pose, speed, yaw_rate, p.dt, self.wheel)
-        end = np.stack([pose.x, pose.z], axis=-1)
-
-        waypoints, last = state["waypoints"], p.n_waypoints - 1
-        target = waypoints[np.arange(n), np.minimum(state["index"], last)]
-        progress = np.hypot(*(target - start).T) - np.hypot(*(target - end).T)
-        passing = (state["index"] <= last) & (segment_distance(target, start, end) <= p.capture_radius)
-        index = state["index"] + passing
-        chained = np.flatnonzero(passing & (index <= last))
-        while chained.size:
-            following = waypoints[chained, index[chained]]
-            chained = chained[segment_distance(following, start[chained], end[chained]) <= p.capture_radius]
-            index[chained] += 1
-            chained = chained[index[chained] <= last]
-        passed = index - state["index"]
-
-        success = index > last
-        outside = ((np.abs(pose.x) > p.half_size) | (np.abs(pose.z) > p.half_size)) & ~success
-        terms = {
-            "progress": p.progress_weight * progress,
-            "waypoint": p.waypoint_bonus * passed,
-            "time": np.full(n, -p.time_penalty * p.dt),
-            "effort": -p.effort_penalty * p.dt * action[:, 1] ** 2,
-            "exit": np.where(outside, -p.exit_penalty, 0.0),
-        }
-        new_state = {
-            **state,
-            "position": end,
-            "heading": pose.heading,
-            "roll": pose.roll,
-            "speed": speed,
-            "index": index,
-        }
+        new_state = {**state, "position": position, "heading": heading, "roll": roll, "speed": speed, "index": index}
         info = {
-            "position": end,
-            "heading": pose.heading,
-            "roll_angle": pose.roll,
+            "position": position,
+            "heading": heading,
+            "roll_angle": roll,
             "speed": speed,
-            "steer_increment": yaw_rate * p.dt,
+            "steer_increment": steer,
             "radius": np.full(n, p.radius),
             "dt": np.full(n, p.dt),
             "waypoint_index": index,
-            "reward_terms": terms,
+            "reward_terms": dict(zip(REWARD_TERMS, terms, strict=True)),
             "is_success": success,
         }
-        reward = terms["progress"] + terms["waypoint"] + terms["time"] + terms["effort"] + terms["exit"]
-        return Transition(new_state, reward, success | outside, info)
+        return Transition(new_state, reward, terminated, info)
 
     def observe(self, state: State) -> np.ndarray:
         p = self.params
-        index, position, heading = state["index"], state["position"], state["heading"]
-        n = len(index)
-        rows = np.arange(n)
-        sin_h, cos_h = np.sin(heading), np.cos(heading)
-        obs = np.empty((n, OBS_PER_WAYPOINT * SHOWN_WAYPOINTS + 2), np.float32)
-        for j in range(SHOWN_WAYPOINTS):
-            waypoint = state["waypoints"][rows, np.minimum(index + j, p.n_waypoints - 1)]
-            dx, dz = waypoint[:, 0] - position[:, 0], waypoint[:, 1] - position[:, 1]
-            ahead, leftward = dx * sin_h + dz * cos_h, dx * cos_h - dz * sin_h
-            distance = np.hypot(ahead, leftward)
-            away = distance > 0
-            column = OBS_PER_WAYPOINT * j
-            obs[:, column] = np.minimum(distance / p.diagonal, 1.0)
-            obs[:, column + 1] = np.clip(np.divide(leftward, distance, out=np.zeros(n), where=away), -1.0, 1.0)
-            obs[:, column + 2] = np.clip(np.divide(ahead, distance, out=np.ones(n), where=away), -1.0, 1.0)
-        obs[:, -2] = state["speed"] / p.max_speed
-        obs[:, -1] = index / p.n_waypoints
-        return obs
+        return _observe_kernel(
+            state["position"], state["heading"], state["speed"], state["waypoints"], state["index"], p.diagonal,
+            p.max_speed,
+        )  # fmt: skip
 
 
 class SteerableWheelEnv(VegymEnv[SteerableWheelParams]):

@@ -16,10 +16,12 @@ The roll angle ``alpha`` grows by ``v dt / r`` as the wheel rolls forward.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
+from numba import njit
 
 from vegym.params import Params, param
 
@@ -43,11 +45,6 @@ class Pose(NamedTuple):
 def wrap_angle(angle: np.ndarray) -> np.ndarray:
     """Angle wrapped into ``[-pi, pi]``: ``(a + pi) mod 2 pi - pi`` (``pi`` itself only through rounding)."""
     return np.mod(np.asarray(angle, dtype=np.float64) + np.pi, 2.0 * np.pi) - np.pi
-
-
-def sinc(x: np.ndarray) -> np.ndarray:
-    """``sin(x) / x`` with ``sinc(0) = 1`` (unnormalised)."""
-    return np.sinc(np.asarray(x, dtype=np.float64) / np.pi)
 
 
 def roll_angle(distance: np.ndarray, radius: float) -> np.ndarray:
@@ -138,6 +135,42 @@ def left(heading: np.ndarray) -> np.ndarray:
     return np.stack([np.cos(psi), np.zeros_like(psi), -np.sin(psi)], axis=-1)
 
 
+@njit(cache=True)
+def arc_step(
+    x: float, z: float, heading: float, roll: float, speed: float, yaw_rate: float, dt: float, radius: float
+) -> tuple[float, float, float, float]:
+    """:func:`steer_step` for one wheel in scalars (SI, rad): ``(x, z, heading, roll)`` after ``dt``.
+
+    The one compiled form of the arc: :func:`steer_step` loops over it and SteerableWheel-v0's step kernel inlines it.
+    """
+    distance = speed * dt
+    phi = yaw_rate * dt
+    half_turn = np.pi * (0.5 * phi / np.pi)  # np.sinc's argument, so the chord rounds as np.sinc(phi / 2 pi) does
+    chord = distance * (math.sin(half_turn) / half_turn if half_turn != 0.0 else 1.0)
+    mid = heading + 0.5 * phi
+    wrapped = (heading + phi + np.pi) % (2.0 * np.pi) - np.pi
+    return x + chord * math.sin(mid), z + chord * math.cos(mid), wrapped, roll + distance / radius
+
+
+@njit(cache=True)
+def _steer_arrays(
+    x: np.ndarray,
+    z: np.ndarray,
+    heading: np.ndarray,
+    roll: np.ndarray,
+    speed: np.ndarray,
+    yaw_rate: np.ndarray,
+    dt: float,
+    radius: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    out = np.empty((4, x.size))
+    for i in range(x.size):
+        out[0, i], out[1, i], out[2, i], out[3, i] = arc_step(
+            x[i], z[i], heading[i], roll[i], speed[i], yaw_rate[i], dt, radius
+        )
+    return out[0], out[1], out[2], out[3]
+
+
 def steer_step(pose: Pose, speed: np.ndarray, yaw_rate: np.ndarray, dt: float, params: WheelParams) -> Pose:
     """Advance a steerable wheel by ``dt`` at constant speed v (m/s) and yaw rate omega (rad/s): exact arc.
 
@@ -146,16 +179,10 @@ def steer_step(pose: Pose, speed: np.ndarray, yaw_rate: np.ndarray, dt: float, p
     ``alpha' = alpha + v dt / r``. This is the book's turning case (8.29-8.34, rotation about the turn centre)
     and reduces to its straight case (8.42, 8.43) at ``phi = 0`` exactly; a negative ``dt`` steps back.
     """
-    distance = np.asarray(speed, dtype=np.float64) * dt
-    phi = np.asarray(yaw_rate, dtype=np.float64) * dt
-    chord = distance * sinc(0.5 * phi)
-    mid = pose.heading + 0.5 * phi
-    return Pose(
-        pose.x + chord * np.sin(mid),
-        pose.z + chord * np.cos(mid),
-        wrap_angle(pose.heading + phi),
-        pose.roll + roll_angle(distance, params.radius),
-    )
+    columns = np.broadcast_arrays(*(np.asarray(c, dtype=np.float64) for c in (*pose, speed, yaw_rate)))
+    shape = columns[0].shape
+    new = _steer_arrays(*(np.ascontiguousarray(c).reshape(-1) for c in columns), float(dt), params.radius)
+    return Pose(*(c.reshape(shape) for c in new))
 
 
 def turn_radius(speed: np.ndarray, yaw_rate: np.ndarray) -> np.ndarray:
