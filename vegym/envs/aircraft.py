@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from gymnasium import spaces
+from numba import njit
 
 from vegym import rng
 from vegym.envs.base import Task, Transition, VegymEnv, VegymVectorEnv
@@ -100,6 +101,102 @@ class AircraftEnvParams(ScheduledParams, Params):
         return max(self.max_climb_rate, self.max_descent_rate) + self.draft_max + self.gust_amplitude
 
 
+STEP_CONSTANTS = (
+    "max_acceleration",
+    "max_deceleration",
+    "max_climb_rate",
+    "max_descent_rate",
+    "max_turn_rate",
+    "dt",
+    "altitude_scale",
+    "speed_scale",
+    "effort_weight",
+    "altitude_tolerance",
+    "speed_tolerance",
+    "heading_tolerance",
+)
+"""Parameters the step kernel reads, in the order of its constants array (SI units, see the fields)."""
+REWARD_TERMS = ("altitude", "speed", "heading", "effort")
+"""Names of ``info["reward_terms"]``, in the order of the step kernel's rows."""
+
+
+@njit(cache=True)
+def _step_kernel(
+    action: np.ndarray,
+    position: np.ndarray,
+    speed: np.ndarray,
+    heading: np.ndarray,
+    vertical_wind: np.ndarray,
+    demand: np.ndarray,
+    c: np.ndarray,
+    envelope: tuple[float, float, float, float, float, float],
+) -> tuple[np.ndarray, ...]:
+    """The whole step, fused per episode; ``c`` holds the parameters named in ``STEP_CONSTANTS``, in that order."""
+    high = (c[0], c[2], c[4])  # A_acc, V_cli, M: the upper command limits and the scales of positive actions
+    low = (-c[1], -c[3], -c[4])
+    dt, altitude_scale, speed_scale, effort_weight = c[5], c[6], c[7], c[8]
+    altitude_tolerance, speed_tolerance, heading_tolerance = c[9], c[10], c[11]
+    n = len(action)
+    new_position, new_speed, new_heading, command = np.empty((n, 3)), np.empty(n), np.empty(n), np.empty((n, 3))
+    climb, errors, terms = np.empty(n), np.empty((n, 3)), np.empty((4, n))
+    reward, success = np.empty(n), np.empty(n, np.bool_)
+    for i in range(n):
+        for j in range(3):
+            u = action[i, j]
+            command[i, j] = min(max(u * (high[j] if u >= 0.0 else -low[j]), low[j]), high[j])
+        applied = (command[i, 0], command[i, 1], command[i, 2])
+        x, y, z, v, psi = aircraft.fly(
+            position[i, 0], position[i, 1], position[i, 2], speed[i], heading[i], applied, vertical_wind[i], dt,
+            envelope, False,
+        )  # fmt: skip
+        new_position[i, 0], new_position[i, 1], new_position[i, 2] = x, y, z
+        new_speed[i], new_heading[i], climb[i] = v, psi, (y - position[i, 1]) / dt
+        e0, e1, e2 = demand[i, 0] - y, demand[i, 1] - v, aircraft.wrap_angle(demand[i, 2] - psi)
+        errors[i, 0], errors[i, 1], errors[i, 2] = e0, e1, e2
+        effort = action[i, 0] * action[i, 0] + action[i, 1] * action[i, 1] + action[i, 2] * action[i, 2]
+        terms[0, i] = -abs(min(max(e0 / altitude_scale, -1.0), 1.0)) / 3.0
+        terms[1, i] = -abs(min(max(e1 / speed_scale, -1.0), 1.0)) / 3.0
+        terms[2, i] = -abs(e2) / (3.0 * np.pi)
+        terms[3, i] = -effort_weight / 3.0 * effort
+        reward[i] = terms[0, i] + terms[1, i] + terms[2, i] + terms[3, i]
+        success[i] = abs(e0) <= altitude_tolerance and abs(e1) <= speed_tolerance and abs(e2) <= heading_tolerance
+    return new_position, new_speed, new_heading, command, climb, errors, terms, reward, success
+
+
+@njit(cache=True)
+def _observe_kernel(
+    position: np.ndarray,
+    speed: np.ndarray,
+    heading: np.ndarray,
+    command: np.ndarray,
+    vertical_speed: np.ndarray,
+    demand: np.ndarray,
+    since_change: np.ndarray,
+    c: np.ndarray,
+) -> np.ndarray:
+    """Observations (n, 8); ``c``: altitude and speed scales, v_min, v_max, vertical speed scale, dt / interval_max."""
+    altitude_scale, speed_scale, min_speed, max_speed, vertical_speed_scale, per_step = (
+        c[0],
+        c[1],
+        c[2],
+        c[3],
+        c[4],
+        c[5],
+    )
+    obs = np.empty((len(speed), 8), np.float32)
+    for i in range(len(speed)):
+        heading_error = demand[i, 2] - heading[i]  # only its sine and cosine are observed: no wrap needed
+        obs[i, 0] = min(max((demand[i, 0] - position[i, 1]) / altitude_scale, -1.0), 1.0)
+        obs[i, 1] = min(max((demand[i, 1] - speed[i]) / speed_scale, -1.0), 1.0)
+        obs[i, 2] = math.sin(heading_error)
+        obs[i, 3] = math.cos(heading_error)
+        obs[i, 4] = (speed[i] - min_speed) / (max_speed - min_speed)
+        obs[i, 5] = min(max(vertical_speed[i] / vertical_speed_scale, -1.0), 1.0)
+        obs[i, 6] = command[i, 1] / vertical_speed_scale
+        obs[i, 7] = min(since_change[i] * per_step, 1.0)
+    return obs
+
+
 class AircraftTask(Task[AircraftEnvParams]):
     """Batched logic of Aircraft-v0 (see :class:`AircraftEnv`)."""
 
@@ -113,6 +210,18 @@ class AircraftTask(Task[AircraftEnvParams]):
         low = np.array([-1, -1, -1, -1, 0, -1, -1, 0], np.float32)
         self.observation_space = spaces.Box(low, np.ones(8, np.float32), dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (3,), np.float32)
+        self._constants = np.array([getattr(params, name) for name in STEP_CONSTANTS], dtype=np.float64)
+        self._envelope = aircraft.envelope(self.physics)
+        self._observation_constants = np.array(
+            [
+                params.altitude_scale,
+                params.speed_scale,
+                params.min_speed,
+                params.max_speed,
+                params.vertical_speed_scale,
+                params.dt / params.change_interval_max,
+            ]
+        )
 
     @property
     def control_rate(self) -> float:
@@ -154,14 +263,6 @@ class AircraftTask(Task[AircraftEnvParams]):
         """The physics state of a task state."""
         return AircraftState(state["position"], state["speed"], state["heading"], state["command"])
 
-    def normalized_errors(self, errors: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Altitude and airspeed errors (n,) over their scales, clipped to [-1, 1]."""
-        p = self.params
-        return (
-            np.clip(errors[:, 0] / p.altitude_scale, -1.0, 1.0),
-            np.clip(errors[:, 1] / p.speed_scale, -1.0, 1.0),
-        )
-
     def step(self, state: dict[str, np.ndarray], action: np.ndarray) -> Transition:
         p = self.params
         keys = state["key"]
@@ -171,60 +272,38 @@ class AircraftTask(Task[AircraftEnvParams]):
                 vertical_wind
                 + rng.uniform_in(keys, _GUST_STREAM, -p.gust_amplitude, p.gust_amplitude, counter=state["step"])[:, 0]
             )
-        command = aircraft.command_from_action(action, self.physics)
-        plane, climb = aircraft.step(self.aircraft_state(state), command, p.dt, self.physics, vertical_wind)
+        position, speed, heading, command, climb, errors, terms, reward, success = _step_kernel(
+            action, state["position"], state["speed"], state["heading"], vertical_wind, state["demand"],
+            self._constants, self._envelope,
+        )  # fmt: skip
         demand = state["demand"]
-        errors = aircraft.tracking_errors(plane, demand)
-        altitude, speed = self.normalized_errors(errors)
-        effort = action[:, 0] * action[:, 0] + action[:, 1] * action[:, 1] + action[:, 2] * action[:, 2]
-        terms = {
-            "altitude": -np.abs(altitude) / 3.0,
-            "speed": -np.abs(speed) / 3.0,
-            "heading": -np.abs(errors[:, 2]) / (3.0 * np.pi),
-            "effort": -p.effort_weight / 3.0 * effort,
-        }
-        success = (
-            (np.abs(errors[:, 0]) <= p.altitude_tolerance)
-            & (np.abs(errors[:, 1]) <= p.speed_tolerance)
-            & (np.abs(errors[:, 2]) <= p.heading_tolerance)
-        )
         new_state = {
             **state,
-            "position": plane.position,
-            "speed": plane.speed,
-            "heading": plane.heading,
-            "command": plane.command,
+            "position": position,
+            "speed": speed,
+            "heading": heading,
+            "command": command,
             "vertical_speed": climb,
             **self.schedule.advance(state, state["step"] + 1, "demand", self.draw_demand),
         }
         info = {
-            "position": plane.position,
-            "speed": plane.speed,
-            "heading": plane.heading,
+            "position": position,
+            "speed": speed,
+            "heading": heading,
             "vertical_speed": climb,
             "dt": np.full(len(keys), p.dt),
             "demand": demand,
             "errors": errors,
-            "reward_terms": terms,
+            "reward_terms": dict(zip(REWARD_TERMS, terms, strict=True)),
             "is_success": success,
         }
-        reward = terms["altitude"] + terms["speed"] + terms["heading"] + terms["effort"]
         return Transition(new_state, reward, np.zeros(len(keys), dtype=bool), info)
 
     def observe(self, state: dict[str, np.ndarray]) -> np.ndarray:
-        p = self.params
-        demand = state["demand"]
-        errors = np.stack([demand[:, 0] - state["position"][:, 1], demand[:, 1] - state["speed"]], axis=-1)
-        heading_error = demand[:, 2] - state["heading"]  # only its sine and cosine are observed: no wrap needed
-        obs = np.empty((len(demand), 8), dtype=np.float32)
-        obs[:, 0], obs[:, 1] = self.normalized_errors(errors)
-        obs[:, 2] = np.sin(heading_error)
-        obs[:, 3] = np.cos(heading_error)
-        obs[:, 4] = (state["speed"] - p.min_speed) / (p.max_speed - p.min_speed)
-        obs[:, 5] = np.clip(state["vertical_speed"] / p.vertical_speed_scale, -1.0, 1.0)
-        obs[:, 6] = state["command"][:, 1] / p.vertical_speed_scale
-        obs[:, 7] = np.minimum((state["step"] - state["last_change"]) * (p.dt / p.change_interval_max), 1.0)
-        return obs
+        return _observe_kernel(
+            state["position"], state["speed"], state["heading"], state["command"], state["vertical_speed"],
+            state["demand"], state["step"] - state["last_change"], self._observation_constants,
+        )  # fmt: skip
 
 
 class AircraftEnv(VegymEnv[AircraftEnvParams]):

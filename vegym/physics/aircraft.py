@@ -21,7 +21,8 @@ the step applies the *previous* step's ``a`` and ``v_y``), the whole step flown 
 and the heading law 8.126-8.127 in which the third command is a lateral velocity ``v_x`` (m/s, saturated at
 ``V = v tan(M dt)``, also lagged) giving ``dpsi = atan(v_x / v)`` per step, so the turn rate scales as 1/dt.
 
-All functions take arrays with a leading batch axis and never modify their inputs; no gymnasium here.
+The array functions take arrays with a leading batch axis and never modify their inputs; :func:`fly` and
+:func:`wrap_angle` are the scalar numba kernels they (and the env's step) run. No gymnasium here.
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ from dataclasses import dataclass
 from typing import NamedTuple
 
 import numpy as np
+from numba import njit
 
 from vegym.params import Params, invalid, param
 
@@ -98,11 +100,25 @@ class AircraftState(NamedTuple):
     command: np.ndarray
 
 
+@njit(cache=True)
+def wrap_angle(angle: float) -> float:
+    """One angle wrapped to [-pi, pi) (rad): ``a - 2 pi floor((a + pi) / 2 pi)``, round-off at the ends to -pi."""
+    wrapped = angle - _TWO_PI * math.floor((angle + math.pi) / _TWO_PI)
+    return max(-math.pi if wrapped >= math.pi else wrapped, -math.pi)
+
+
+@njit(cache=True)
+def _wrap_each(angles: np.ndarray) -> np.ndarray:
+    out = np.empty(angles.size)
+    for i in range(angles.size):
+        out[i] = wrap_angle(angles[i])
+    return out
+
+
 def wrap(angle: np.ndarray) -> np.ndarray:
-    """Angle wrapped to [-pi, pi): ``a - 2 pi floor((a + pi) / 2 pi)``, round-off at the ends mapped to -pi."""
+    """Angles (any shape, rad) wrapped to [-pi, pi) by :func:`wrap_angle`."""
     angle = np.asarray(angle, dtype=np.float64)
-    wrapped = angle - _TWO_PI * np.floor((angle + np.pi) / _TWO_PI)
-    return np.maximum(np.where(wrapped >= np.pi, -np.pi, wrapped), -np.pi)
+    return _wrap_each(np.ascontiguousarray(angle).reshape(-1)).reshape(angle.shape)
 
 
 def _clip_columns(values: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
@@ -143,6 +159,88 @@ def saturate(command: np.ndarray, speed: np.ndarray, dt: float, params: Aircraft
     return out
 
 
+@njit(cache=True)
+def fly(
+    x: float,
+    y: float,
+    z: float,
+    v: float,
+    psi: float,
+    command: tuple[float, float, float],
+    vertical_wind: float,
+    dt: float,
+    envelope: tuple[float, float, float, float, float, float],
+    book_faithful: bool,
+) -> tuple[float, float, float, float, float]:
+    """One aircraft, one step of ``dt`` s under the applied ``command = (a, v_y, omega or v_x)``, in scalars.
+
+    ``envelope = (v_min, v_max, floor, ceiling, wind_x, wind_z)``; returns ``(x', y', z', v', psi')`` (SI, rad).
+    The one compiled form of the model: :func:`step` loops over it and Aircraft-v0's step kernel inlines it.
+    """
+    accel, climb, turn = command
+    min_speed, max_speed, floor, ceiling, wind_x, wind_z = envelope
+    v_new = min(max(v + accel * dt, min_speed), max_speed)
+    distance = 0.5 * (v + v_new) * dt
+    if book_faithful:
+        dpsi = math.atan(turn / v)
+        chord, course = distance, psi
+    else:
+        dpsi = turn * dt
+        half_turn = np.pi * (0.5 * dpsi / np.pi)  # np.sinc's argument, so the chord rounds as np.sinc does
+        chord = distance * (math.sin(half_turn) / half_turn if half_turn != 0.0 else 1.0)
+        course = psi + 0.5 * dpsi
+    return (
+        x + chord * math.sin(course) + wind_x * dt,
+        min(max(y + (climb + vertical_wind) * dt, floor), ceiling),
+        z + chord * math.cos(course) + wind_z * dt,
+        v_new,
+        wrap_angle(psi + dpsi),
+    )
+
+
+@njit(cache=True)
+def _fly_each(
+    position: np.ndarray,
+    speed: np.ndarray,
+    heading: np.ndarray,
+    applied: np.ndarray,
+    vertical_wind: np.ndarray,
+    dt: float,
+    envelope: tuple[float, float, float, float, float, float],
+    book_faithful: bool,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    n = len(speed)
+    new_position, new_speed, new_heading, climb = np.empty((n, 3)), np.empty(n), np.empty(n), np.empty(n)
+    for i in range(n):
+        x, y, z, new_speed[i], new_heading[i] = fly(
+            position[i, 0],
+            position[i, 1],
+            position[i, 2],
+            speed[i],
+            heading[i],
+            (applied[i, 0], applied[i, 1], applied[i, 2]),
+            vertical_wind[i],
+            dt,
+            envelope,
+            book_faithful,
+        )
+        new_position[i, 0], new_position[i, 1], new_position[i, 2] = x, y, z
+        climb[i] = (y - position[i, 1]) / dt
+    return new_position, new_speed, new_heading, climb
+
+
+def envelope(params: AircraftParams) -> tuple[float, float, float, float, float, float]:
+    """``(v_min, v_max, floor, ceiling, wind_x, wind_z)`` of :func:`fly` (SI)."""
+    return (
+        float(params.min_speed),
+        float(params.max_speed),
+        float(params.floor_altitude),
+        float(params.ceiling_altitude),
+        float(params.wind_x),
+        float(params.wind_z),
+    )
+
+
 def step(
     state: AircraftState,
     command: np.ndarray,
@@ -156,25 +254,17 @@ def step(
     plus gusts, drawn by the caller). The climb rate returned is ``(y' - y) / dt``, drafts and the altitude
     limits included.
     """
-    x, y, z = state.position[:, 0], state.position[:, 1], state.position[:, 2]
-    v, psi = state.speed, state.heading
-    new_command = saturate(command, v, dt, params)
+    new_command = saturate(command, state.speed, dt, params)
     applied = state.command if params.book_faithful else new_command
-    accel, climb, turn = applied[:, 0], applied[:, 1], applied[:, 2]
-    v_new = np.clip(v + accel * dt, params.min_speed, params.max_speed)
-    distance = 0.5 * (v + v_new) * dt
-    if params.book_faithful:
-        dpsi = np.arctan(turn / v)
-        chord, course = distance, psi
-    else:
-        dpsi = turn * dt
-        chord, course = distance * np.sinc(0.5 * dpsi / np.pi), psi + 0.5 * dpsi
-    position = np.empty(state.position.shape)
-    position[:, 0] = x + chord * np.sin(course) + params.wind_x * dt
-    position[:, 1] = np.clip(y + (climb + vertical_wind) * dt, params.floor_altitude, params.ceiling_altitude)
-    position[:, 2] = z + chord * np.cos(course) + params.wind_z * dt
-    y_new = position[:, 1]
-    return AircraftState(position, v_new, wrap(psi + dpsi), new_command), (y_new - y) / dt
+    n = len(state.speed)
+    position, speed, heading, climb = _fly_each(
+        *(np.ascontiguousarray(a, dtype=np.float64) for a in (state.position, state.speed, state.heading, applied)),
+        np.ascontiguousarray(np.broadcast_to(np.asarray(vertical_wind, dtype=np.float64), (n,))),
+        float(dt),
+        envelope(params),
+        bool(params.book_faithful),
+    )
+    return AircraftState(position, speed, heading, new_command), climb
 
 
 def tracking_errors(state: AircraftState, demand: np.ndarray) -> np.ndarray:
