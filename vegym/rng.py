@@ -10,6 +10,7 @@ exactly the same numbers whatever the other sub-envs do, resets included. A vect
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 _GOLDEN = np.uint64(0x9E3779B97F4A7C15)
 _M1 = np.uint64(0xBF58476D1CE4E5B9)
@@ -19,11 +20,26 @@ _NEXT_EPISODE = np.uint64(0xD1B54A32D192ED03)
 _TO_UNIT = 2.0**-53
 
 
-def _mix(z: np.ndarray) -> np.ndarray:
-    """SplitMix64 finaliser (wrapping uint64 arithmetic)."""
+@njit(cache=True)
+def _mix_one(z: np.uint64) -> np.uint64:
+    """SplitMix64 finaliser of one uint64 (wrapping arithmetic)."""
     z = (z ^ (z >> _S30)) * _M1
     z = (z ^ (z >> _S27)) * _M2
     return z ^ (z >> _S31)
+
+
+@njit(cache=True)
+def _mix_each(z: np.ndarray) -> np.ndarray:
+    out = np.empty_like(z)
+    for i in range(z.size):
+        out[i] = _mix_one(z[i])
+    return out
+
+
+def _mix(z: np.ndarray) -> np.ndarray:
+    """SplitMix64 finaliser of every element of a uint64 array (any shape)."""
+    z = np.asarray(z, dtype=np.uint64)
+    return _mix_each(np.ascontiguousarray(z).reshape(-1)).reshape(z.shape)[()]  # [()]: a scalar for a 0-d input
 
 
 def seed_keys(seeds: np.ndarray | int) -> np.ndarray:
@@ -37,17 +53,27 @@ def next_key(keys: np.ndarray) -> np.ndarray:
     return _mix(keys ^ _NEXT_EPISODE)
 
 
+@njit(cache=True)
+def _uniform_kernel(keys: np.ndarray, stream_offset: np.uint64, size: int, counters: np.ndarray) -> np.ndarray:
+    """:func:`uniform` fused per key: lane j is ``_mix(_mix(key GOLDEN + stream + counter M2) + (j + 1) GOLDEN)``."""
+    out = np.empty((len(keys), size))
+    for i in range(len(keys)):
+        base = _mix_one(keys[i] * _GOLDEN + stream_offset + counters[i] * _M2)
+        for j in range(size):
+            out[i, j] = np.float64(_mix_one(base + np.uint64(j + 1) * _GOLDEN) >> _S11) * _TO_UNIT
+    return out
+
+
 def uniform(keys: np.ndarray, stream: int, size: int, counter: np.ndarray | int = 0) -> np.ndarray:
     """Uniform floats in [0, 1), shape ``(len(keys), size)``.
 
     ``stream`` separates independent uses within an episode (initial state, per-step noise, ...);
     ``counter`` (scalar or per key, e.g. the step index) indexes successive draws of one stream.
     """
+    keys = np.ascontiguousarray(keys, dtype=np.uint64)
+    counters = np.broadcast_to(np.asarray(counter, dtype=np.uint64).reshape(-1), keys.shape)
     stream_offset = np.uint64((stream * int(_M1)) % 2**64)
-    base = keys * _GOLDEN + stream_offset + np.asarray(counter, dtype=np.uint64).reshape(-1) * _M2
-    lanes = np.arange(1, size + 1, dtype=np.uint64) * _GOLDEN
-    z = _mix(_mix(base)[:, None] + lanes)
-    return (z >> _S11).astype(np.float64) * _TO_UNIT
+    return _uniform_kernel(keys, stream_offset, size, np.ascontiguousarray(counters))
 
 
 def uniform_in(
