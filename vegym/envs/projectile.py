@@ -103,6 +103,7 @@ class ProjectileTask(Task[ProjectileEnvParams]):
             np.array([0, 0, -1, -1], np.float32), np.array([1, 1, 1, 1], np.float32), dtype=np.float32
         )
         self.action_space = spaces.Box(-1.0, 1.0, (3,), np.float32)
+        self.physics = params.physics
 
     @property
     def control_rate(self) -> float:
@@ -117,11 +118,14 @@ class ProjectileTask(Task[ProjectileEnvParams]):
         bearing = np.pi * (2.0 * u[:, 2] - 1.0)
         wind_speed = p.wind_speed_max * u[:, 3]
         wind_direction = np.pi * (2.0 * u[:, 4] - 1.0)
-        zeros = np.zeros(n)
+        launch_position, target, wind = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3))
+        launch_position[:, 1] = height
+        target[:, 0], target[:, 2] = distance * np.cos(bearing), distance * np.sin(bearing)
+        wind[:, 0], wind[:, 2] = wind_speed * np.cos(wind_direction), wind_speed * np.sin(wind_direction)
         return {
-            "launch_position": np.stack([zeros, height, zeros], axis=-1),
-            "target": np.stack([distance * np.cos(bearing), zeros, distance * np.sin(bearing)], axis=-1),
-            "wind": np.stack([wind_speed * np.cos(wind_direction), zeros, wind_speed * np.sin(wind_direction)], -1),
+            "launch_position": launch_position,
+            "target": target,
+            "wind": wind,
             "landing_point": np.full((n, 3), np.nan),
         }
 
@@ -135,10 +139,11 @@ class ProjectileTask(Task[ProjectileEnvParams]):
         offset = state["target"] - state["launch_position"]
         distance = np.hypot(offset[:, 0], offset[:, 2])
         bearing = np.arctan2(offset[:, 2], offset[:, 0])
-        zeros = np.zeros_like(bearing)
-        along = np.stack([np.cos(bearing), zeros, np.sin(bearing)], axis=-1)
-        across = np.stack([-np.sin(bearing), zeros, np.cos(bearing)], axis=-1)
-        return distance, bearing, np.stack([along, across])
+        cos_b, sin_b = np.cos(bearing), np.sin(bearing)
+        frame = np.zeros((2, *bearing.shape, 3))
+        frame[0, ..., 0], frame[0, ..., 2] = cos_b, sin_b
+        frame[1, ..., 0], frame[1, ..., 2] = -sin_b, cos_b
+        return distance, bearing, frame
 
     def step(self, state: dict[str, np.ndarray], action: np.ndarray) -> Transition:
         p = self.params
@@ -147,7 +152,7 @@ class ProjectileTask(Task[ProjectileEnvParams]):
         azimuth = bearing + AZIMUTH_LIMIT * action[:, 1]
         speed = p.speed_min + 0.5 * (action[:, 2] + 1.0) * (p.speed_max - p.speed_min)
         velocity = projectile.launch_velocity(elevation, azimuth, speed)
-        landing, flight_time = projectile.impact_point(state["launch_position"], velocity, state["wind"], p.physics)
+        landing, flight_time = projectile.impact_point(state["launch_position"], velocity, state["wind"], self.physics)
         miss = np.hypot(landing[:, 0] - state["target"][:, 0], landing[:, 2] - state["target"][:, 2])
         hit = miss <= p.hit_radius
         miss_term = -miss / p.target_distance_max
@@ -171,15 +176,12 @@ class ProjectileTask(Task[ProjectileEnvParams]):
         p = self.params
         distance, _, (along, across) = self.target_frame(state)
         wind = state["wind"]
-        return np.stack(
-            [
-                distance / p.target_distance_max,
-                state["launch_position"][:, 1] / p.height_scale,
-                np.einsum("ij,ij->i", wind, along) / p.wind_scale,
-                np.einsum("ij,ij->i", wind, across) / p.wind_scale,
-            ],
-            axis=-1,
-        ).astype(np.float32)
+        obs = np.empty((len(distance), 4), np.float32)
+        obs[:, 0] = distance / p.target_distance_max
+        obs[:, 1] = state["launch_position"][:, 1] / p.height_scale
+        obs[:, 2] = (wind[:, 0] * along[:, 0] + wind[:, 2] * along[:, 2]) / p.wind_scale  # the wind is horizontal
+        obs[:, 3] = (wind[:, 0] * across[:, 0] + wind[:, 2] * across[:, 2]) / p.wind_scale
+        return obs
 
 
 class ProjectileEnv(VegymEnv[ProjectileEnvParams]):

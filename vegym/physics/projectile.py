@@ -39,7 +39,11 @@ def launch_direction(elevation: np.ndarray, azimuth: np.ndarray) -> np.ndarray:
     elevation = np.asarray(elevation, dtype=np.float64)
     azimuth = np.asarray(azimuth, dtype=np.float64)
     cos_el = np.cos(elevation)
-    return np.stack([cos_el * np.cos(azimuth), np.sin(elevation), cos_el * np.sin(azimuth)], axis=-1)
+    direction = np.empty((*np.broadcast_shapes(elevation.shape, azimuth.shape), 3))
+    direction[..., 0] = cos_el * np.cos(azimuth)
+    direction[..., 1] = np.sin(elevation)
+    direction[..., 2] = cos_el * np.sin(azimuth)
+    return direction
 
 
 def launch_velocity(elevation: np.ndarray, azimuth: np.ndarray, speed: np.ndarray) -> np.ndarray:
