@@ -7,6 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from gymnasium import spaces
+from numba import njit
 
 from vegym import rng
 from vegym.envs.base import State, Task, Transition, VegymEnv, VegymVectorEnv
@@ -67,6 +68,56 @@ class PendulumPumpParams(ScheduledParams, Params):
         return 2.0 * math.sqrt(self.gravity / self.length)
 
 
+REWARD_TERMS = ("amplitude", "effort")
+"""Names of ``info["reward_terms"]``, in the order of the step kernel's rows."""
+
+
+@njit(cache=True)
+def _step_kernel(
+    action: np.ndarray, theta: np.ndarray, omega: np.ndarray, target: np.ndarray, c: np.ndarray
+) -> tuple[np.ndarray, ...]:
+    """The whole step, fused per episode; ``c``: see ``PendulumPumpTask._constants``."""
+    max_torque, dt, h, substeps = c[0], c[1], c[2], int(c[3])
+    g_over_l, damping, inertia, weight_moment = c[4], c[5], c[6], c[7]
+    effort_weight, success_tolerance = c[8], c[9]
+    n = len(action)
+    torque, new_theta, new_omega, energy, amplitude = np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    target_energy, terms, reward, success = np.empty(n), np.empty((2, n)), np.empty(n), np.empty(n, np.bool_)
+    for i in range(n):
+        torque[i] = max_torque * action[i, 0]
+        th, om = theta[i], omega[i]
+        for _ in range(substeps):
+            th, om = pendulum.swing(th, om, torque[i], h, g_over_l, damping, inertia)
+        th = (th + np.pi) % (2.0 * np.pi) - np.pi
+        new_theta[i], new_omega[i] = th, om
+        energy[i] = pendulum.energy_of(th, om, inertia, weight_moment)
+        amplitude[i] = pendulum.amplitude_of(energy[i], weight_moment)
+        target_energy[i] = pendulum.energy_of(target[i], 0.0, inertia, weight_moment)
+        error = amplitude[i] - target[i]
+        terms[0, i] = -dt * abs(error) / np.pi
+        terms[1, i] = -effort_weight * dt * action[i, 0] ** 2
+        reward[i] = terms[0, i] + terms[1, i]
+        success[i] = abs(error) <= success_tolerance
+    return new_theta, new_omega, torque, energy, amplitude, target_energy, terms, reward, success
+
+
+@njit(cache=True)
+def _observe_kernel(theta: np.ndarray, omega: np.ndarray, target: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """Observations (n, 6); ``c``: see ``PendulumPumpTask._constants``."""
+    inertia, weight_moment, rate_scale = c[6], c[7], c[10]
+    obs = np.empty((len(theta), 6), np.float32)
+    for i in range(len(theta)):
+        energy = pendulum.energy_of(theta[i], omega[i], inertia, weight_moment)
+        target_energy = pendulum.energy_of(target[i], 0.0, inertia, weight_moment)
+        obs[i, 0] = math.sin(theta[i])
+        obs[i, 1] = math.cos(theta[i])
+        obs[i, 2] = min(max(omega[i] / rate_scale, -1.0), 1.0)
+        obs[i, 3] = target[i] / np.pi
+        obs[i, 4] = min(max((energy - target_energy) / (2.0 * weight_moment), -1.0), 1.0)
+        obs[i, 5] = (pendulum.amplitude_of(energy, weight_moment) - target[i]) / np.pi
+    return obs
+
+
 class PendulumPumpTask(Task[PendulumPumpParams]):
     """Batched logic of PendulumPump-v0 (see :class:`PendulumPumpEnv`)."""
 
@@ -80,6 +131,24 @@ class PendulumPumpTask(Task[PendulumPumpParams]):
         low = np.array([-1, -1, -1, 0, -1, -1], np.float32)
         self.observation_space = spaces.Box(low, np.ones(6, np.float32), dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
+        physics = self.physics
+        # kernel constants: max torque (N m), dt, substep (s), substeps, g/L (1/s^2), damping (N m s), m L^2 (kg m^2),
+        # m g L (J), effort weight, success tolerance (rad), rate scale (rad/s)
+        self._constants = np.array(
+            [
+                params.max_torque,
+                params.dt,
+                params.step_length,
+                params.substeps,
+                physics.gravity / physics.length,
+                physics.damping,
+                physics.inertia,
+                physics.weight_moment,
+                params.effort_weight,
+                params.success_tolerance,
+                params.rate_scale,
+            ]
+        )
 
     @property
     def control_rate(self) -> float:
@@ -103,21 +172,10 @@ class PendulumPumpTask(Task[PendulumPumpParams]):
 
     def step(self, state: State, action: np.ndarray) -> Transition:
         p = self.params
-        keys = state["key"]
-        n = len(keys)
-        torque = p.max_torque * action[:, 0]
-        theta, omega = state["theta"], state["omega"]
-        for _ in range(p.substeps):
-            theta, omega = pendulum.step(theta, omega, torque, p.step_length, self.physics)
-        theta = np.mod(theta + np.pi, 2.0 * np.pi) - np.pi
-        target = state["target"]
-        energy = pendulum.energy(theta, omega, self.physics)
-        amplitude = pendulum.energy_amplitude(energy, self.physics)
-        error = amplitude - target
-        terms = {
-            "amplitude": -p.dt * np.abs(error) / np.pi,
-            "effort": -p.effort_weight * p.dt * action[:, 0] ** 2,
-        }
+        n = len(action)
+        theta, omega, torque, energy, amplitude, target_energy, terms, reward, success = _step_kernel(
+            action, state["theta"], state["omega"], state["target"], self._constants
+        )
         new_state = {
             **state,
             "theta": theta,
@@ -130,27 +188,16 @@ class PendulumPumpTask(Task[PendulumPumpParams]):
             "torque": torque,
             "energy": energy,
             "amplitude": amplitude,
-            "target_amplitude": target,
-            "target_energy": pendulum.amplitude_energy(target, self.physics),
+            "target_amplitude": state["target"],
+            "target_energy": target_energy,
             "dt": np.full(n, p.dt),
-            "reward_terms": terms,
-            "is_success": np.abs(error) <= p.success_tolerance,
+            "reward_terms": dict(zip(REWARD_TERMS, terms, strict=True)),
+            "is_success": success,
         }
-        return Transition(new_state, terms["amplitude"] + terms["effort"], np.zeros(n, dtype=bool), info)
+        return Transition(new_state, reward, np.zeros(n, dtype=bool), info)
 
     def observe(self, state: State) -> np.ndarray:
-        p = self.params
-        theta, omega, target = state["theta"], state["omega"], state["target"]
-        energy = pendulum.energy(theta, omega, self.physics)
-        target_energy = pendulum.amplitude_energy(target, self.physics)
-        obs = np.empty((len(theta), 6), np.float32)
-        obs[:, 0] = np.sin(theta)
-        obs[:, 1] = np.cos(theta)
-        obs[:, 2] = np.clip(omega / p.rate_scale, -1.0, 1.0)
-        obs[:, 3] = target / np.pi
-        obs[:, 4] = np.clip((energy - target_energy) / (2.0 * self.physics.weight_moment), -1.0, 1.0)
-        obs[:, 5] = (pendulum.energy_amplitude(energy, self.physics) - target) / np.pi
-        return obs
+        return _observe_kernel(state["theta"], state["omega"], state["target"], self._constants)
 
 
 class PendulumPumpEnv(VegymEnv[PendulumPumpParams]):

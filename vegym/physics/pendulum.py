@@ -10,7 +10,8 @@ with a viscous pivot damping b (N m s/rad) and a torque tau (N m) at the pivot. 
 first and then theta with the new omega; its energy ``E = m L^2 omega^2 / 2 + m g L (1 - cos theta)`` stays
 bounded without drift (explicit Euler makes it grow). In arc length, ``d = L theta`` and ``v = L omega``.
 
-All functions take arrays with a leading batch axis (scalars broadcast) and never modify their inputs.
+The array functions take arrays with a leading batch axis (scalars broadcast) and never modify their inputs; each
+runs one of the scalar numba kernels (``*_of``, :func:`swing`) that PendulumPump-v0's step kernel also runs.
 """
 
 from __future__ import annotations
@@ -19,6 +20,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from vegym.params import Params, param
 from vegym.physics.particle import STANDARD_GRAVITY
@@ -55,12 +57,87 @@ class PendulumParams(Params):
         return (math.sqrt(beta * beta + 4.0 * w2) - beta) / w2
 
 
+@njit(cache=True)
+def acceleration_of(
+    theta: float, omega: float, torque: float, g_over_l: float, damping: float, inertia: float
+) -> float:
+    """One pendulum's ``-(g/L) sin theta - (b / (m L^2)) omega + tau / (m L^2)`` (rad/s^2), in scalars."""
+    return -g_over_l * math.sin(theta) + (torque - damping * omega) / inertia
+
+
+@njit(cache=True)
+def swing(
+    theta: float, omega: float, torque: float, dt: float, g_over_l: float, damping: float, inertia: float
+) -> tuple[float, float]:
+    """One pendulum, one semi-implicit Euler step of ``dt`` s: the new (theta, omega), in scalars.
+
+    The one compiled form of the integrator: :func:`step` loops over it and PendulumPump-v0's step kernel inlines it.
+    """
+    new_omega = omega + dt * acceleration_of(theta, omega, torque, g_over_l, damping, inertia)
+    return theta + dt * new_omega, new_omega
+
+
+@njit(cache=True)
+def energy_of(theta: float, omega: float, inertia: float, weight_moment: float) -> float:
+    """One pendulum's ``m L^2 omega^2 / 2 + m g L (1 - cos theta)`` (J), in scalars."""
+    return 0.5 * inertia * omega * omega + weight_moment * (1.0 - math.cos(theta))
+
+
+@njit(cache=True)
+def amplitude_of(energy_: float, weight_moment: float) -> float:
+    """One swing's amplitude ``arccos(clip(1 - E / (m g L), -1, 1))`` (rad), in scalars."""
+    return math.acos(min(max(1.0 - energy_ / weight_moment, -1.0), 1.0))
+
+
+def _flat(*arrays: np.ndarray | float) -> tuple[tuple[int, ...], list[np.ndarray]]:
+    """The broadcast shape of ``arrays`` and each of them broadcast to it, as contiguous 1-d float64 arrays."""
+    columns = np.broadcast_arrays(*(np.asarray(a, dtype=np.float64) for a in arrays))
+    return columns[0].shape, [np.ascontiguousarray(c).reshape(-1) for c in columns]
+
+
+@njit(cache=True)
+def _acceleration_each(
+    theta: np.ndarray, omega: np.ndarray, torque: np.ndarray, g_over_l: float, damping: float, inertia: float
+) -> np.ndarray:
+    out = np.empty(theta.size)
+    for i in range(theta.size):
+        out[i] = acceleration_of(theta[i], omega[i], torque[i], g_over_l, damping, inertia)
+    return out
+
+
+@njit(cache=True)
+def _swing_each(
+    theta: np.ndarray, omega: np.ndarray, torque: np.ndarray, dt: float, g_over_l: float, damping: float, inertia: float
+) -> tuple[np.ndarray, np.ndarray]:
+    new_theta, new_omega = np.empty(theta.size), np.empty(theta.size)
+    for i in range(theta.size):
+        new_theta[i], new_omega[i] = swing(theta[i], omega[i], torque[i], dt, g_over_l, damping, inertia)
+    return new_theta, new_omega
+
+
+@njit(cache=True)
+def _energy_each(theta: np.ndarray, omega: np.ndarray, inertia: float, weight_moment: float) -> np.ndarray:
+    out = np.empty(theta.size)
+    for i in range(theta.size):
+        out[i] = energy_of(theta[i], omega[i], inertia, weight_moment)
+    return out
+
+
+@njit(cache=True)
+def _amplitude_each(energy_: np.ndarray, weight_moment: float) -> np.ndarray:
+    out = np.empty(energy_.size)
+    for i in range(energy_.size):
+        out[i] = amplitude_of(energy_[i], weight_moment)
+    return out
+
+
 def angular_acceleration(
     theta: np.ndarray, omega: np.ndarray, torque: np.ndarray | float, params: PendulumParams
 ) -> np.ndarray:
-    """``-(g/L) sin theta - (b / (m L^2)) omega + tau / (m L^2)`` (rad/s^2)."""
+    """``-(g/L) sin theta - (b / (m L^2)) omega + tau / (m L^2)`` (rad/s^2), by :func:`acceleration_of`."""
     p = params
-    return -(p.gravity / p.length) * np.sin(theta) + (torque - p.damping * omega) / p.inertia
+    shape, (theta, omega, torque) = _flat(theta, omega, torque)
+    return _acceleration_each(theta, omega, torque, p.gravity / p.length, p.damping, p.inertia).reshape(shape)[()]
 
 
 def step(
@@ -68,24 +145,28 @@ def step(
 ) -> tuple[np.ndarray, np.ndarray]:
     """One semi-implicit Euler step of ``dt`` seconds with the torque held: the new (theta, omega). theta is not
     wrapped."""
-    new_omega = omega + dt * angular_acceleration(theta, omega, torque, params)
-    return theta + dt * new_omega, new_omega
+    p = params
+    shape, (theta, omega, torque) = _flat(theta, omega, torque)
+    new_theta, new_omega = _swing_each(theta, omega, torque, float(dt), p.gravity / p.length, p.damping, p.inertia)
+    return new_theta.reshape(shape)[()], new_omega.reshape(shape)[()]
 
 
 def energy(theta: np.ndarray, omega: np.ndarray, params: PendulumParams) -> np.ndarray:
     """``m L^2 omega^2 / 2 + m g L (1 - cos theta)`` (J), zero at rest hanging down."""
-    return 0.5 * params.inertia * omega * omega + params.weight_moment * (1.0 - np.cos(theta))
+    shape, (theta, omega) = _flat(theta, omega)
+    return _energy_each(theta, omega, params.inertia, params.weight_moment).reshape(shape)[()]
 
 
 def amplitude_energy(amplitude: np.ndarray, params: PendulumParams) -> np.ndarray:
-    """Energy (J) of a swing of amplitude theta* (rad): ``m g L (1 - cos theta*)``."""
-    return params.weight_moment * (1.0 - np.cos(amplitude))
+    """Energy (J) of a swing of amplitude theta* (rad): ``m g L (1 - cos theta*)``, the energy at rest there."""
+    return energy(amplitude, 0.0, params)
 
 
 def energy_amplitude(energy_: np.ndarray, params: PendulumParams) -> np.ndarray:
     """Amplitude (rad) of the undamped swing with this energy: ``arccos(1 - E / (m g L))``; pi from ``2 m g L`` up
     (the pendulum goes over the top), 0 for ``E <= 0``."""
-    return np.arccos(np.clip(1.0 - np.asarray(energy_) / params.weight_moment, -1.0, 1.0))
+    shape, (energy_,) = _flat(energy_)
+    return _amplitude_each(energy_, params.weight_moment).reshape(shape)[()]
 
 
 def pump_torque(
