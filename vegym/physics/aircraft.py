@@ -35,6 +35,7 @@ import numpy as np
 from numba import njit
 
 from vegym.params import Params, invalid, param
+from vegym.physics.columns import flat_columns
 
 STANDARD_RATE = math.radians(3.0)
 """The standard-rate turn, 3 degrees per second (rad/s)."""
@@ -256,10 +257,10 @@ def step(
     """
     new_command = saturate(command, state.speed, dt, params)
     applied = state.command if params.book_faithful else new_command
-    n = len(state.speed)
+    _, (vertical_wind, _) = flat_columns(vertical_wind, state.speed)  # (n,), however it was given
     position, speed, heading, climb = _fly_each(
         *(np.ascontiguousarray(a, dtype=np.float64) for a in (state.position, state.speed, state.heading, applied)),
-        np.ascontiguousarray(np.broadcast_to(np.asarray(vertical_wind, dtype=np.float64), (n,))),
+        vertical_wind,
         float(dt),
         envelope(params),
         bool(params.book_faithful),

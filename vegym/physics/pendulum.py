@@ -23,6 +23,7 @@ import numpy as np
 from numba import njit
 
 from vegym.params import Params, param
+from vegym.physics.columns import flat_columns
 from vegym.physics.particle import STANDARD_GRAVITY
 
 
@@ -89,12 +90,6 @@ def amplitude_of(energy_: float, weight_moment: float) -> float:
     return math.acos(min(max(1.0 - energy_ / weight_moment, -1.0), 1.0))
 
 
-def _flat(*arrays: np.ndarray | float) -> tuple[tuple[int, ...], list[np.ndarray]]:
-    """The broadcast shape of ``arrays`` and each of them broadcast to it, as contiguous 1-d float64 arrays."""
-    columns = np.broadcast_arrays(*(np.asarray(a, dtype=np.float64) for a in arrays))
-    return columns[0].shape, [np.ascontiguousarray(c).reshape(-1) for c in columns]
-
-
 @njit(cache=True)
 def _acceleration_each(
     theta: np.ndarray, omega: np.ndarray, torque: np.ndarray, g_over_l: float, damping: float, inertia: float
@@ -136,7 +131,7 @@ def angular_acceleration(
 ) -> np.ndarray:
     """``-(g/L) sin theta - (b / (m L^2)) omega + tau / (m L^2)`` (rad/s^2), by :func:`acceleration_of`."""
     p = params
-    shape, (theta, omega, torque) = _flat(theta, omega, torque)
+    shape, (theta, omega, torque) = flat_columns(theta, omega, torque)
     return _acceleration_each(theta, omega, torque, p.gravity / p.length, p.damping, p.inertia).reshape(shape)[()]
 
 
@@ -146,14 +141,14 @@ def step(
     """One semi-implicit Euler step of ``dt`` seconds with the torque held: the new (theta, omega). theta is not
     wrapped."""
     p = params
-    shape, (theta, omega, torque) = _flat(theta, omega, torque)
+    shape, (theta, omega, torque) = flat_columns(theta, omega, torque)
     new_theta, new_omega = _swing_each(theta, omega, torque, float(dt), p.gravity / p.length, p.damping, p.inertia)
     return new_theta.reshape(shape)[()], new_omega.reshape(shape)[()]
 
 
 def energy(theta: np.ndarray, omega: np.ndarray, params: PendulumParams) -> np.ndarray:
     """``m L^2 omega^2 / 2 + m g L (1 - cos theta)`` (J), zero at rest hanging down."""
-    shape, (theta, omega) = _flat(theta, omega)
+    shape, (theta, omega) = flat_columns(theta, omega)
     return _energy_each(theta, omega, params.inertia, params.weight_moment).reshape(shape)[()]
 
 
@@ -165,7 +160,7 @@ def amplitude_energy(amplitude: np.ndarray, params: PendulumParams) -> np.ndarra
 def energy_amplitude(energy_: np.ndarray, params: PendulumParams) -> np.ndarray:
     """Amplitude (rad) of the undamped swing with this energy: ``arccos(1 - E / (m g L))``; pi from ``2 m g L`` up
     (the pendulum goes over the top), 0 for ``E <= 0``."""
-    shape, (energy_,) = _flat(energy_)
+    shape, (energy_,) = flat_columns(energy_)
     return _amplitude_each(energy_, params.weight_moment).reshape(shape)[()]
 
 

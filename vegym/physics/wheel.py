@@ -24,6 +24,7 @@ import numpy as np
 from numba import njit
 
 from vegym.params import Params, param
+from vegym.physics.columns import flat_columns
 
 
 @dataclass(frozen=True)
@@ -179,9 +180,8 @@ def steer_step(pose: Pose, speed: np.ndarray, yaw_rate: np.ndarray, dt: float, p
     ``alpha' = alpha + v dt / r``. This is the book's turning case (8.29-8.34, rotation about the turn centre)
     and reduces to its straight case (8.42, 8.43) at ``phi = 0`` exactly; a negative ``dt`` steps back.
     """
-    columns = np.broadcast_arrays(*(np.asarray(c, dtype=np.float64) for c in (*pose, speed, yaw_rate)))
-    shape = columns[0].shape
-    new = _steer_arrays(*(np.ascontiguousarray(c).reshape(-1) for c in columns), float(dt), params.radius)
+    shape, columns = flat_columns(*pose, speed, yaw_rate)
+    new = _steer_arrays(*columns, float(dt), params.radius)
     return Pose(*(c.reshape(shape) for c in new))
 
 
