@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 from gymnasium import spaces
+from numba import njit
 
 from vegym import rng
 from vegym.envs.base import State, Task, Transition, VegymEnv, VegymVectorEnv
@@ -59,6 +61,60 @@ class GearTrainParams(Params):
         return max(1, round(self.target_interval / self.dt))
 
 
+REWARD_TERMS = ("tracking", "effort")
+"""Names of ``info["reward_terms"]``, in the order of the step kernel's rows."""
+
+
+@njit(cache=True)
+def _step_kernel(
+    action: np.ndarray,
+    speed: np.ndarray,
+    radii: np.ndarray,
+    angles: np.ndarray,
+    gears: np.ndarray,
+    target: np.ndarray,
+    c: np.ndarray,
+) -> tuple[np.ndarray, ...]:
+    """The whole step, fused per episode; ``c``: max speed, max acceleration, dt, tracking and effort weights,
+    tolerance (SI)."""
+    max_speed, max_acceleration, dt, tracking_weight, effort_weight, tolerance = c[0], c[1], c[2], c[3], c[4], c[5]
+    n, g = radii.shape
+    new_speed, new_angles, output_speed = np.empty(n), np.empty((n, g)), np.empty(n)
+    output, error = np.empty(n), np.empty(n)
+    terms, reward, success = np.empty((2, n)), np.empty(n), np.empty(n, np.bool_)
+    dv = max_acceleration * dt
+    for i in range(n):
+        v = min(max(max_speed * action[i, 0], speed[i] - dv), speed[i] + dv)
+        new_speed[i] = v
+        gear_speed, last = v, gears[i] - 1
+        for k in range(g):
+            if k > 0:  # each mesh turns the next gear at -r_{k-1} / r_k times the speed (wheel.train_speeds)
+                gear_speed = gear_speed * -(radii[i, k - 1] / radii[i, k])
+            new_angles[i, k] = wheel.wrap_one(angles[i, k] + gear_speed * dt)
+            if k == last:
+                output_speed[i] = gear_speed
+        output[i] = new_angles[i, last]
+        error[i] = wheel.wrap_one(target[i] - output[i])
+        terms[0, i] = -tracking_weight * dt * abs(error[i]) / np.pi
+        terms[1, i] = -effort_weight * dt * action[i, 0] ** 2
+        reward[i] = terms[0, i] + terms[1, i]
+        success[i] = abs(error[i]) <= tolerance
+    return new_speed, new_angles, output_speed, output, error, terms, reward, success
+
+
+@njit(cache=True)
+def _observe_kernel(
+    target: np.ndarray, angles: np.ndarray, gears: np.ndarray, speed: np.ndarray, ratio: np.ndarray, c: np.ndarray
+) -> np.ndarray:
+    """Observations (n, 4); ``c``: max speed, ratio_max."""
+    obs = np.empty((len(speed), 4), np.float32)
+    for i in range(len(speed)):
+        error = target[i] - angles[i, gears[i] - 1]
+        obs[i, 0], obs[i, 1] = math.sin(error), math.cos(error)
+        obs[i, 2], obs[i, 3] = speed[i] / c[0], ratio[i] / c[1]
+    return obs
+
+
 class GearTrainTask(Task[GearTrainParams]):
     """Batched logic of GearTrain-v0 (see :class:`GearTrainEnv`)."""
 
@@ -69,6 +125,17 @@ class GearTrainTask(Task[GearTrainParams]):
         super().__init__(params)
         self.observation_space = spaces.Box(-1.0, 1.0, (4,), np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
+        self._constants = np.array(
+            [
+                params.max_speed,
+                params.max_acceleration,
+                params.dt,
+                params.tracking_weight,
+                params.effort_weight,
+                params.tolerance,
+            ]
+        )
+        self._observation_constants = np.array([params.max_speed, params.ratio_max])
 
     @property
     def control_rate(self) -> float:
@@ -85,12 +152,13 @@ class GearTrainTask(Task[GearTrainParams]):
         n, g = len(keys), p.gears_max
         u = rng.uniform(keys, _SETUP_STREAM, 1 + 2 * g)
         gears = np.minimum(p.gears_min + np.floor(u[:, 0] * (p.gears_max - p.gears_min + 1)), p.gears_max)
-        return {
+        state = {
             "gears": gears.astype(np.int64),
             "radii": p.radius_min + (p.radius_max - p.radius_min) * u[:, 1 : 1 + g],
             "angles": np.pi * (2.0 * u[:, 1 + g :] - 1.0),
             "speed": np.zeros(n),
         }
+        return {**state, "ratio": self.ratio(state)}  # fixed for the episode
 
     @staticmethod
     def ratio(state: State) -> np.ndarray:
@@ -106,38 +174,29 @@ class GearTrainTask(Task[GearTrainParams]):
     def step(self, state: State, action: np.ndarray) -> Transition:
         p = self.params
         n = len(action)
-        dv = p.max_acceleration * p.dt
-        speed = np.clip(p.max_speed * action[:, 0], state["speed"] - dv, state["speed"] + dv)
-        speeds = wheel.train_speeds(speed, state["radii"])
-        angles = wheel.wrap_angle(state["angles"] + speeds * p.dt)
-        new_state = {**state, "angles": angles, "speed": speed}
-        output = self.output_angle(new_state)
         target = self.target(state["key"], state["step"])
-        error = wheel.wrap_angle(target - output)
-        terms = {
-            "tracking": -p.tracking_weight * p.dt * np.abs(error) / np.pi,
-            "effort": -p.effort_weight * p.dt * action[:, 0] ** 2,
-        }
+        speed, angles, output_speed, output, error, terms, reward, success = _step_kernel(
+            action, state["speed"], state["radii"], state["angles"], state["gears"], target, self._constants
+        )
         info = {
             "input_speed": speed,
-            "output_speed": speeds[np.arange(n), state["gears"] - 1],
+            "output_speed": output_speed,
             "output_angle": output,
             "target_angle": target,
             "error": error,
-            "ratio": self.ratio(state),
+            "ratio": state["ratio"],
             "gears": state["gears"],
             "dt": np.full(n, p.dt),
-            "reward_terms": terms,
-            "is_success": np.abs(error) <= p.tolerance,
+            "reward_terms": dict(zip(REWARD_TERMS, terms, strict=True)),
+            "is_success": success,
         }
-        return Transition(new_state, terms["tracking"] + terms["effort"], np.zeros(n, dtype=bool), info)
+        return Transition({**state, "angles": angles, "speed": speed}, reward, np.zeros(n, dtype=bool), info)
 
     def observe(self, state: State) -> np.ndarray:
-        p = self.params
-        error = self.target(state["key"], state["step"]) - self.output_angle(state)
-        return np.stack(
-            [np.sin(error), np.cos(error), state["speed"] / p.max_speed, self.ratio(state) / p.ratio_max], axis=-1
-        ).astype(np.float32)
+        target = self.target(state["key"], state["step"])
+        return _observe_kernel(
+            target, state["angles"], state["gears"], state["speed"], state["ratio"], self._observation_constants
+        )
 
 
 class GearTrainEnv(VegymEnv[GearTrainParams]):

@@ -43,9 +43,24 @@ class Pose(NamedTuple):
     roll: np.ndarray
 
 
+@njit(cache=True)
+def wrap_one(angle: float) -> float:
+    """One angle wrapped into ``[-pi, pi]`` (rad): ``(a + pi) mod 2 pi - pi`` (``pi`` itself only through rounding)."""
+    return (angle + np.pi) % (2.0 * np.pi) - np.pi
+
+
+@njit(cache=True)
+def _wrap_each(angles: np.ndarray) -> np.ndarray:
+    out = np.empty(angles.size)
+    for i in range(angles.size):
+        out[i] = wrap_one(angles[i])
+    return out
+
+
 def wrap_angle(angle: np.ndarray) -> np.ndarray:
-    """Angle wrapped into ``[-pi, pi]``: ``(a + pi) mod 2 pi - pi`` (``pi`` itself only through rounding)."""
-    return np.mod(np.asarray(angle, dtype=np.float64) + np.pi, 2.0 * np.pi) - np.pi
+    """Angles (any shape, rad) wrapped into ``[-pi, pi]`` by :func:`wrap_one`."""
+    shape, (angle,) = flat_columns(angle)
+    return _wrap_each(angle).reshape(shape)[()]
 
 
 def roll_angle(distance: np.ndarray, radius: float) -> np.ndarray:
@@ -149,8 +164,7 @@ def arc_step(
     half_turn = np.pi * (0.5 * phi / np.pi)  # np.sinc's argument, so the chord rounds as np.sinc(phi / 2 pi) does
     chord = distance * (math.sin(half_turn) / half_turn if half_turn != 0.0 else 1.0)
     mid = heading + 0.5 * phi
-    wrapped = (heading + phi + np.pi) % (2.0 * np.pi) - np.pi
-    return x + chord * math.sin(mid), z + chord * math.cos(mid), wrapped, roll + distance / radius
+    return x + chord * math.sin(mid), z + chord * math.cos(mid), wrap_one(heading + phi), roll + distance / radius
 
 
 @njit(cache=True)
