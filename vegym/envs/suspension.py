@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 from gymnasium import spaces
+from numba import njit
 
 from vegym import rng
 from vegym.envs.base import State, Task, Transition, VegymEnv, VegymVectorEnv
@@ -74,6 +76,83 @@ class SuspensionParams(Params):
         return self.spring.static_length
 
 
+STEP_CONSTANTS = (
+    "damping_min",
+    "damping_max",
+    "dt",
+    "speed",
+    "static_length",
+    "travel_limit",
+    "episode_steps",
+    "accel_scale",
+    "bottom_out_penalty",
+    "comfort_rms",
+    "velocity_scale",
+)
+"""Parameters the kernels read, in the order of their constants array (SI units, see the fields)."""
+REWARD_TERMS = ("comfort", "bump_stop")
+"""Names of ``info["reward_terms"]``, in the order of the step kernel's rows."""
+
+
+@njit(cache=True)
+def _step_kernel(
+    action: np.ndarray,
+    height: np.ndarray,
+    velocity: np.ndarray,
+    base: np.ndarray,
+    base_velocity: np.ndarray,
+    distance: np.ndarray,
+    squared_acceleration: np.ndarray,
+    step: np.ndarray,
+    terrain: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    c: np.ndarray,
+    spring: tuple[float, float, float, float],
+) -> tuple[np.ndarray, ...]:
+    """The whole step, fused per episode; ``terrain = (amplitude, wavenumber, phase, offset)``, ``c`` holds the
+    parameters named in ``STEP_CONSTANTS`` and ``spring`` is ``suspension.body_step``'s."""
+    damping_min, damping_max, dt, speed, static_length, travel_limit = c[0], c[1], c[2], c[3], c[4], c[5]
+    episode_steps, accel_scale, bottom_out_penalty, comfort_rms = c[6], c[7], c[8], c[9]
+    amplitude, wavenumber, phase, offset = terrain
+    n = len(action)
+    out = np.empty((10, n))  # distance, height, velocity, base, base velocity, acceleration, squared, travel, c, rms
+    terms, reward = np.empty((2, n)), np.empty(n)
+    bottomed, success = np.empty(n, np.bool_), np.empty(n, np.bool_)
+    for i in range(n):
+        damping = damping_min + 0.5 * (action[i, 0] + 1.0) * (damping_max - damping_min)
+        y, v, a = suspension.body_step(height[i], velocity[i], base[i], base_velocity[i], damping, dt, 0.0, spring)
+        x = distance[i] + speed * dt
+        ground, slope = suspension.terrain_at(x, amplitude[i], wavenumber[i], phase[i])
+        new_base = ground - offset[i]
+        travel = y - new_base - static_length
+        bottomed[i] = abs(travel) > travel_limit
+        squared = squared_acceleration[i] + dt * a * a
+        rms = math.sqrt(squared / ((step[i] + 1) * dt))
+        remaining = max(episode_steps - step[i] - 1, 0.0) * dt
+        terms[0, i] = -dt * min((a / accel_scale) ** 2, 1.0)
+        terms[1, i] = -(bottom_out_penalty + remaining) if bottomed[i] else 0.0
+        reward[i] = terms[0, i] + terms[1, i]
+        success[i] = not bottomed[i] and rms <= comfort_rms
+        out[0, i], out[1, i], out[2, i], out[3, i], out[4, i] = x, y, v, new_base, slope * speed
+        out[5, i], out[6, i], out[7, i], out[8, i], out[9, i] = a, squared, travel, damping, rms
+    return out, terms, reward, bottomed, success
+
+
+@njit(cache=True)
+def _observe_kernel(
+    height: np.ndarray, velocity: np.ndarray, base: np.ndarray, base_velocity: np.ndarray, acceleration: np.ndarray,
+    c: np.ndarray,
+) -> np.ndarray:  # fmt: skip
+    """Observations (n, 4); ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
+    static_length, travel_limit, accel_scale, velocity_scale = c[4], c[5], c[7], c[10]
+    obs = np.empty((len(height), 4), np.float32)
+    for i in range(len(height)):
+        obs[i, 0] = min(max((height[i] - base[i] - static_length) / travel_limit, -1.0), 1.0)
+        obs[i, 1] = min(max(velocity[i] / velocity_scale, -1.0), 1.0)
+        obs[i, 2] = min(max((velocity[i] - base_velocity[i]) / velocity_scale, -1.0), 1.0)
+        obs[i, 3] = min(max(acceleration[i] / accel_scale, -1.0), 1.0)
+    return obs
+
+
 class SuspensionTask(Task[SuspensionParams]):
     """Batched logic of Suspension-v0 (see :class:`SuspensionEnv`)."""
 
@@ -86,6 +165,8 @@ class SuspensionTask(Task[SuspensionParams]):
         self.static_length = params.static_length
         self.observation_space = spaces.Box(-1.0, 1.0, (4,), np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
+        self._constants = np.array([getattr(params, name) for name in STEP_CONSTANTS], dtype=np.float64)
+        self._spring = (self.spring.stiffness, self.spring.natural_length, self.spring.mass, self.spring.gravity)
 
     @property
     def control_rate(self) -> float:
@@ -115,65 +196,46 @@ class SuspensionTask(Task[SuspensionParams]):
             "squared_acceleration": np.zeros(n),
         }
 
-    def axle(self, state: State, distance: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Axle height relative to its start (the cumulative base displacement, m) and its velocity (m/s)."""
-        height, slope = suspension.terrain(distance, state["amplitude"], state["wavenumber"], state["phase"])
-        return height - state["offset"], slope * self.params.speed
-
     def step(self, state: State, action: np.ndarray) -> Transition:
         p = self.params
         n = len(action)
-        damping = p.damping_min + 0.5 * (action[:, 0] + 1.0) * (p.damping_max - p.damping_min)
-        height, velocity, acceleration = suspension.step(
-            state["height"], state["velocity"], state["base"], state["base_velocity"], damping, p.dt, self.spring
-        )
-        distance = state["distance"] + p.speed * p.dt
-        new_base, new_base_velocity = self.axle(state, distance)
-        travel = height - new_base - self.static_length
-        bottomed = np.abs(travel) > p.travel_limit
-        squared = state["squared_acceleration"] + p.dt * acceleration * acceleration
-        elapsed = (state["step"] + 1) * p.dt
-        remaining = np.maximum(p.episode_steps - state["step"] - 1, 0) * p.dt
-        terms = {
-            "comfort": -p.dt * np.minimum((acceleration / p.accel_scale) ** 2, 1.0),
-            "bump_stop": np.where(bottomed, -(p.bottom_out_penalty + remaining), 0.0),
-        }
+        terrain = (state["amplitude"], state["wavenumber"], state["phase"], state["offset"])
+        out, terms, reward, bottomed, success = _step_kernel(
+            action, state["height"], state["velocity"], state["base"], state["base_velocity"], state["distance"],
+            state["squared_acceleration"], state["step"], terrain, self._constants, self._spring,
+        )  # fmt: skip
+        distance, height, velocity, base, base_velocity, acceleration, squared, travel, damping, rms = out
         new_state = {
             **state,
             "distance": distance,
             "height": height,
             "velocity": velocity,
-            "base": new_base,
-            "base_velocity": new_base_velocity,
+            "base": base,
+            "base_velocity": base_velocity,
             "acceleration": acceleration,
             "squared_acceleration": squared,
         }
-        rms = np.sqrt(squared / elapsed)
         info = {
             "body_height": height,
             "body_velocity": velocity,
             "body_acceleration": acceleration,
-            "base_height": new_base,
-            "base_velocity": new_base_velocity,
+            "base_height": base,
+            "base_velocity": base_velocity,
             "travel": travel,
             "damping": damping,
             "distance": distance,
             "rms_acceleration": rms,
             "dt": np.full(n, p.dt),
-            "reward_terms": terms,
-            "is_success": ~bottomed & (rms <= p.comfort_rms),
+            "reward_terms": dict(zip(REWARD_TERMS, terms, strict=True)),
+            "is_success": success,
         }
-        return Transition(new_state, terms["comfort"] + terms["bump_stop"], bottomed, info)
+        return Transition(new_state, reward, bottomed, info)
 
     def observe(self, state: State) -> np.ndarray:
-        p = self.params
-        velocity = state["velocity"]
-        obs = np.empty((len(velocity), 4), np.float32)
-        obs[:, 0] = np.clip((state["height"] - state["base"] - self.static_length) / p.travel_limit, -1.0, 1.0)
-        obs[:, 1] = np.clip(velocity / p.velocity_scale, -1.0, 1.0)
-        obs[:, 2] = np.clip((velocity - state["base_velocity"]) / p.velocity_scale, -1.0, 1.0)
-        obs[:, 3] = np.clip(state["acceleration"] / p.accel_scale, -1.0, 1.0)
-        return obs
+        return _observe_kernel(
+            state["height"], state["velocity"], state["base"], state["base_velocity"], state["acceleration"],
+            self._constants,
+        )  # fmt: skip
 
 
 class SuspensionEnv(VegymEnv[SuspensionParams]):

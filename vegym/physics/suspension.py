@@ -23,8 +23,10 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from vegym.params import Params, param
+from vegym.physics.columns import flat_columns
 from vegym.physics.particle import STANDARD_GRAVITY
 
 
@@ -65,6 +67,51 @@ class SpringParams(Params):
         return (math.sqrt(beta * beta + 4.0 * w2) - beta) / w2
 
 
+@njit(cache=True)
+def body_step(
+    height: float,
+    velocity: float,
+    base: float,
+    base_velocity: float,
+    damping: float,
+    dt: float,
+    force: float,
+    spring: tuple[float, float, float, float],
+) -> tuple[float, float, float]:
+    """One quarter-car, one semi-implicit Euler step (scalars, SI): new height, new velocity, acceleration applied.
+
+    ``spring = (k, l, m, g)``. The one compiled form of the model: :func:`acceleration` and :func:`step` loop over it
+    and Suspension-v0's step kernel inlines it.
+    """
+    stiffness, natural_length, mass, gravity = spring
+    a = (-stiffness * (height - base - natural_length) + -damping * (velocity - base_velocity) + force) / mass - gravity
+    new_velocity = velocity + dt * a
+    return height + dt * new_velocity, new_velocity, a
+
+
+@njit(cache=True)
+def _step_each(
+    height: np.ndarray,
+    velocity: np.ndarray,
+    base: np.ndarray,
+    base_velocity: np.ndarray,
+    damping: np.ndarray,
+    force: np.ndarray,
+    dt: float,
+    spring: tuple[float, float, float, float],
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    new_height, new_velocity, a = np.empty(height.size), np.empty(height.size), np.empty(height.size)
+    for i in range(height.size):
+        new_height[i], new_velocity[i], a[i] = body_step(
+            height[i], velocity[i], base[i], base_velocity[i], damping[i], dt, force[i], spring
+        )
+    return new_height, new_velocity, a
+
+
+def _spring(params: SpringParams) -> tuple[float, float, float, float]:
+    return (params.stiffness, params.natural_length, params.mass, params.gravity)
+
+
 def acceleration(
     height: np.ndarray,
     velocity: np.ndarray,
@@ -75,10 +122,8 @@ def acceleration(
     force: np.ndarray | float = 0.0,
 ) -> np.ndarray:
     """Body acceleration (m/s^2, y up) of the quarter-car: spring, damper ``c`` (N s/m), gravity, actuator ``u`` (N)."""
-    p = params
-    spring = -p.stiffness * (height - base - p.natural_length)
-    damper = -damping * (velocity - base_velocity)
-    return (spring + damper + force) / p.mass - p.gravity
+    shape, columns = flat_columns(height, velocity, base, base_velocity, damping, force)
+    return _step_each(*columns, 0.0, _spring(params))[2].reshape(shape)[()]
 
 
 def step(
@@ -95,9 +140,8 @@ def step(
 
     Returns the new height (m), the new velocity (m/s) and the acceleration applied over the step (m/s^2).
     """
-    a = acceleration(height, velocity, base, base_velocity, damping, params, force)
-    new_velocity = velocity + dt * a
-    return height + dt * new_velocity, new_velocity, a
+    shape, columns = flat_columns(height, velocity, base, base_velocity, damping, force)
+    return tuple(c.reshape(shape)[()] for c in _step_each(*columns, float(dt), _spring(params)))
 
 
 def energy(height: np.ndarray, velocity: np.ndarray, base: np.ndarray, params: SpringParams) -> np.ndarray:
@@ -115,17 +159,39 @@ def transmissibility(omega: np.ndarray, damping: np.ndarray, params: SpringParam
     return np.sqrt((k * k + cw2) / ((k - m * np.asarray(omega) ** 2) ** 2 + cw2))
 
 
+@njit(cache=True)
+def terrain_at(
+    distance: float, amplitude: np.ndarray, wavenumber: np.ndarray, phase: np.ndarray
+) -> tuple[float, float]:
+    """One terrain's height (m) and slope at ``distance`` x: ``sum_j A_j sin(kappa_j x + phi_j)`` and its derivative;
+    ``amplitude`` (m), ``wavenumber`` (rad/m) and ``phase`` (rad) are (J,) arrays."""
+    height, slope = 0.0, 0.0
+    for j in range(len(amplitude)):
+        angle = wavenumber[j] * distance + phase[j]
+        height += amplitude[j] * math.sin(angle)
+        slope += amplitude[j] * wavenumber[j] * math.cos(angle)
+    return height, slope
+
+
+@njit(cache=True)
+def _terrain_each(
+    distance: np.ndarray, amplitude: np.ndarray, wavenumber: np.ndarray, phase: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    height, slope = np.empty(len(distance)), np.empty(len(distance))
+    for i in range(len(distance)):
+        height[i], slope[i] = terrain_at(distance[i], amplitude[i], wavenumber[i], phase[i])
+    return height, slope
+
+
 def terrain(
     distance: np.ndarray, amplitude: np.ndarray, wavenumber: np.ndarray, phase: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
     """Height (m) and slope of an undulating terrain ``sum_j A_j sin(kappa_j x + phi_j)`` at ``distance`` x (n,).
 
-    ``amplitude`` (m), ``wavenumber`` (rad/m) and ``phase`` (rad) are (n, J) arrays, one row per terrain.
+    ``amplitude`` (m), ``wavenumber`` (rad/m) and ``phase`` (rad) are (n, J) arrays, one row per terrain
+    (:func:`terrain_at` for each).
     """
-    angle = wavenumber * distance[:, None] + phase
-    height = np.sum(amplitude * np.sin(angle), axis=-1)
-    slope = np.sum(amplitude * wavenumber * np.cos(angle), axis=-1)
-    return height, slope
+    return _terrain_each(*(np.ascontiguousarray(a, dtype=np.float64) for a in (distance, amplitude, wavenumber, phase)))
 
 
 def skyhook_damping(body_velocity: np.ndarray, relative_velocity: np.ndarray, c_min: float, c_max: float) -> np.ndarray:
