@@ -1,4 +1,5 @@
-"""The ``vegym`` command: ``list``, ``train``, ``evaluate``, ``compare`` and ``demo`` (``vegym COMMAND --help``)."""
+"""The ``vegym`` command: ``list``, ``train``, ``evaluate``, ``compare``, ``sweep`` and ``demo`` (``vegym COMMAND
+--help``)."""
 
 from __future__ import annotations
 
@@ -7,7 +8,7 @@ import json
 import shlex
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 
 import gymnasium as gym
@@ -16,7 +17,7 @@ from rich.table import Table
 from rich.text import Text
 
 import vegym
-from agents.config import ALGOS, CONFIG_DIR, ConfigError, env_name, load_config, resolve_env_id
+from agents.config import ALGOS, CONFIG_DIR, ConfigError, TrainConfig, env_name, load_config, resolve_env_id
 from agents.evaluation import EVAL_SEED, REFERENCE_AGENTS, agent_factory, evaluate_agents, run_episode
 
 console = Console(highlight=False, width=None if sys.stdout.isatty() else 160)
@@ -75,8 +76,18 @@ def cmd_list(args: argparse.Namespace) -> int:
     return 0
 
 
+def _seed_list(text: str) -> list[int]:
+    try:
+        seeds = [int(part) for part in text.split(",") if part.strip()]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a comma-separated list of seeds, e.g. 0,1,2") from None
+    if not seeds or min(seeds) < 0 or len(set(seeds)) != len(seeds):
+        raise argparse.ArgumentTypeError(f"{text!r}: give distinct non-negative seeds, e.g. 0,1,2")
+    return seeds
+
+
 def cmd_train(args: argparse.Namespace) -> int:
-    """Train an SB3 agent from a config."""
+    """Train an SB3 agent from a config, on one seed or on several in parallel."""
     import torch
 
     from agents.training import CONFIG_FILE, resume_config, train
@@ -84,6 +95,8 @@ def cmd_train(args: argparse.Namespace) -> int:
     env_id = resolve_env_id(args.env)
     out = Path(args.out) if args.out else Path("runs") / env_name(env_id) / args.algo
     torch.set_num_threads(args.threads)
+    if args.seeds is not None:
+        return _train_seeds(args, env_id, out)
     if args.resume:
         if args.config is not None or args.seed is not None:
             raise SystemExit("--resume continues with the run's saved config.yml; drop --config and --seed")
@@ -91,11 +104,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         if (config.env_id, config.algo) != (env_id, args.algo):
             raise SystemExit(f"--resume: {out / CONFIG_FILE} is {config.algo} on {config.env_id}")
     else:
-        overrides = {
-            key: value for key, value in (("seed", args.seed), ("n_timesteps", args.timesteps)) if value is not None
-        }
-        config_path = Path(args.config) if args.config else CONFIG_DIR / f"{args.algo}.yml"
-        config = load_config(config_path, env_id, args.algo, overrides)
+        config = _load_train_config(args, env_id, args.seed)
     command = shlex.join(["vegym", *args.argv]) if not args.resume else None
     say(f"training {config.algo} on {config.env_id} for {config.n_timesteps} steps into {out}")
     result = train(config, out, resume=args.resume, progress_bar=not args.no_progress, command=command)
@@ -104,6 +113,53 @@ def cmd_train(args: argparse.Namespace) -> int:
         return 130
     say(f"saved {result.model_path} after {result.timesteps} steps in {result.wall_time_s:.1f} s")
     return 0
+
+
+def _load_train_config(args: argparse.Namespace, env_id: str, seed: int | None) -> TrainConfig:
+    """The config entry of ``env_id`` in ``--config`` (default configs/<algo>.yml) with the command's overrides."""
+    overrides = {key: value for key, value in (("seed", seed), ("n_timesteps", args.timesteps)) if value is not None}
+    config_path = Path(args.config) if args.config else CONFIG_DIR / f"{args.algo}.yml"
+    return load_config(config_path, env_id, args.algo, overrides)
+
+
+def _train_seeds(args: argparse.Namespace, env_id: str, out: Path) -> int:
+    """``vegym train --seeds``: one run per seed in ``out/seed_<k>``, ``--jobs`` processes at a time."""
+    from agents.multiseed import seed_configs, train_seeds
+    from agents.training import seed_dir
+
+    if args.seed is not None:
+        raise SystemExit("give either --seed or --seeds")
+    if args.resume and args.config is not None:
+        raise SystemExit("--resume continues with each seed's saved config.yml; drop --config")
+    configs = seed_configs(_load_train_config(args, env_id, None), args.seeds, out, args.resume)
+    commands = {}
+    for seed in args.seeds:
+        one_seed = ["vegym", "train", "--env", env_name(env_id), "--algo", args.algo, "--seed", str(seed)]
+        if args.config:
+            one_seed += ["--config", args.config]
+        if args.timesteps:
+            one_seed += ["--timesteps", str(args.timesteps)]
+        commands[seed] = shlex.join([*one_seed, "--out", str(seed_dir(out, seed)), "--no-progress"])
+    jobs = min(args.jobs, len(args.seeds))
+    say(f"training {args.algo} on {env_id} with seeds {args.seeds}, {jobs} at a time, into {out}/seed_<k>")
+    outcomes = train_seeds(
+        configs,
+        out,
+        jobs=jobs,
+        resume=args.resume,
+        commands=None if args.resume else commands,
+        threads=args.threads,
+        progress_bar=not args.no_progress,
+        log=say,
+    )
+    failed = [o.seed for o in outcomes if o.error is not None]
+    interrupted = [o.seed for o in outcomes if o.result is not None and o.result.interrupted]
+    done = [o.seed for o in outcomes if o.ok]
+    say(f"trained seeds {done or 'none'}" + (f"; failed: {failed}" if failed else ""))
+    if interrupted:
+        say(f"interrupted seeds {interrupted} saved their models; continue with --resume --seeds ...")
+        return 130
+    return 1 if failed else 0
 
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
@@ -145,6 +201,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
         models_dir=Path(args.models),
         algos=args.algos,
         retrain_agents=args.retrain,
+        seeds=args.seeds,
+        jobs=args.jobs,
         timesteps=args.timesteps,
         progress_bar=not args.no_progress,
         log=say,
@@ -158,11 +216,56 @@ def cmd_compare(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_sweep(args: argparse.Namespace) -> int:
+    """Run (or join, or resume) an Optuna study over the algorithm's hyperparameters."""
+    import torch
+
+    from agents.sweep import (
+        FINISHED,
+        SWEEPS_DIR,
+        SweepSettings,
+        default_storage,
+        parse_tune_env,
+        sweep,
+        write_best_config,
+    )
+
+    torch.set_num_threads(args.threads)
+    env_id = resolve_env_id(args.env)
+    study_name = args.study or f"{env_name(env_id)}-{args.algo}"
+    settings = SweepSettings(
+        env_id=env_id,
+        algo=args.algo,
+        trials=args.trials,
+        storage=args.storage or default_storage(study_name),
+        study=study_name,
+        timesteps=args.timesteps,
+        eval_episodes=args.eval_episodes,
+        tune_env=parse_tune_env(args.tune_env, env_id),
+        heartbeat=args.heartbeat,
+    )
+    say(
+        f"study {settings.study!r} in {settings.storage}: {settings.trials} trials of {args.algo} on {env_id}, "
+        f"{args.workers} worker(s) here; run the same command elsewhere with this --storage to add workers"
+    )
+    start = time.perf_counter()
+    study = sweep(settings, args.workers, log=say)
+    finished = study.get_trials(deepcopy=False, states=FINISHED)
+    say(f"{len(finished)} trials finished in the study ({time.perf_counter() - start:.0f} s in this command)")
+    out = Path(args.best) if args.best else SWEEPS_DIR / f"{study_name}_best.yml"
+    say(write_best_config(study, settings, out).rstrip())
+    say(f"wrote {out}: train it with `vegym train --env {env_name(env_id)} --algo {args.algo} --config {out}`")
+    return 0
+
+
 def cmd_demo(args: argparse.Namespace) -> int:
     """Show episodes on screen, or save one as a GIF."""
     env_id = resolve_env_id(args.env)
     name, factory, config = agent_factory(args.agent, env_id, args.seed)
     env_kwargs = config.env_kwargs if config is not None else {}
+    if isinstance(factory, Mapping):
+        training_seed, factory = next(iter(factory.items()))
+        say(f"showing the agent of training seed {training_seed}")
     if args.gif:
         from agents.plots import save_episode_gif
 
@@ -207,9 +310,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--algo", required=True, choices=list(ALGOS), help="algorithm")
     p.add_argument("--config", help="config file (default: configs/<algo>.yml)")
     p.add_argument("--seed", type=_non_negative, help="seed (default: the config's, else 0)")
+    p.add_argument(
+        "--seeds",
+        type=_seed_list,
+        help="train one model per seed, e.g. 0,1,2, into OUT/seed_<k> (processes in parallel, see --jobs)",
+    )
+    p.add_argument("--jobs", type=_positive, default=2, help="with --seeds: seeds trained at once (default 2)")
     p.add_argument("--timesteps", type=_positive, help="total env steps (default: the config's n_timesteps)")
     p.add_argument("--out", help="run directory (default: runs/<Env-v0>/<algo>)")
-    p.add_argument("--resume", action="store_true", help="continue the run in --out")
+    p.add_argument("--resume", action="store_true", help="continue the run in --out (with --seeds: every seed's)")
     p.add_argument("--threads", type=_positive, default=1, help=threads_help)
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_train)
@@ -246,10 +355,44 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--algos", nargs="+", choices=list(ALGOS), default=list(ALGOS), help="learned algorithms to include")
     p.add_argument("--retrain", action="store_true", help="retrain the learned agents from the committed configs first")
+    p.add_argument("--seeds", type=_seed_list, default=[0, 1, 2], help="with --retrain: training seeds (default 0,1,2)")
+    p.add_argument("--jobs", type=_positive, default=2, help="with --retrain: seeds trained at once (default 2)")
     p.add_argument("--timesteps", type=_positive, help="with --retrain: override every config's n_timesteps")
     p.add_argument("--no-progress", action="store_true", help="no progress bar while retraining")
     p.add_argument("--threads", type=_positive, default=1, help=threads_help)
     p.set_defaults(func=cmd_compare)
+
+    p = sub.add_parser(
+        "sweep",
+        help="tune hyperparameters with an Optuna study (SQLite, or PostgreSQL across machines)",
+        description="An Optuna study over the algorithm's hyperparameters: each trial trains the env's committed "
+        "config with sampled values and is scored by its mean normalized score on fixed evaluation episodes; weak "
+        "trials are pruned from periodic evaluations. The study lives in --storage (default: a SQLite file in "
+        "runs/sweeps/); give a PostgreSQL URL and run the same command on several machines to share one study. "
+        "Running the command again resumes the study until it holds --trials finished trials; trials of workers "
+        "that died are retried. The best trial is written as a configs/<algo>.yml block.",
+    )
+    p.add_argument("--env", required=True, help=env_help)
+    p.add_argument("--algo", required=True, choices=list(ALGOS), help="algorithm")
+    p.add_argument("--trials", type=_positive, required=True, help="finished trials the study should hold")
+    p.add_argument("--timesteps", type=_positive, help="training steps per trial (default: the config's)")
+    p.add_argument("--storage", help="Optuna RDB URL, e.g. postgresql://user:pw@host/db (default: SQLite file)")
+    p.add_argument("--study", help="study name (default <Env-v0>-<algo>)")
+    p.add_argument("--workers", type=_positive, default=1, help="worker processes on this machine (default 1)")
+    p.add_argument("--eval-episodes", type=_positive, default=10, help="episodes per evaluation (default 10)")
+    p.add_argument(
+        "--tune-env",
+        action="append",
+        default=[],
+        metavar="NAME=LOW:HIGH",
+        help="also sample this env parameter (e.g. a reward weight) uniformly in [LOW, HIGH]; repeatable",
+    )
+    p.add_argument(
+        "--heartbeat", type=_positive, default=60, help="seconds between heartbeats; 2x silent = dead (default 60)"
+    )
+    p.add_argument("--best", help="where to write the best config (default runs/sweeps/<study>_best.yml)")
+    p.add_argument("--threads", type=_positive, default=1, help=threads_help)
+    p.set_defaults(func=cmd_sweep)
 
     p = sub.add_parser(
         "demo",

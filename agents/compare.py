@@ -1,9 +1,12 @@
 """``vegym compare``: every env's analytic controller, random policy, references and learned agents, side by side.
 
-Learned agents are the run directories ``<models>/<Env-v0>/<algo>/`` (``model.zip`` and its ``config.yml``);
-the shipped ones are in ``agents/pretrained/``. ``retrain`` remakes them from the committed configs. Output:
-``compare.json`` (one record per env and agent), ``compare.md``, ``normalized_scores.png``, per env
-``<Env-v0>_trajectory.png`` and one ``<Env-v0>_<agent>.gif`` per agent.
+Learned agents are the directories ``<models>/<Env-v0>/<algo>/``: one run (``model.zip`` and its
+``config.yml``) or one run per training seed in ``seed_<k>/``; the shipped ones are in ``agents/pretrained/``.
+Every training seed is evaluated on the same episodes; the table and ``compare.json`` give the mean, the
+interquartile mean and their 95% stratified-bootstrap confidence intervals over seeds and episodes
+(:mod:`agents.statistics`). ``retrain`` remakes the agents from the committed configs. Output: ``compare.json``
+(one record per env and agent), ``compare.md``, ``normalized_scores.png`` (with the CIs as error bars), per env
+``<Env-v0>_trajectory.png`` and one ``<Env-v0>_<agent>.gif`` per agent (a learned agent's first seed).
 """
 
 from __future__ import annotations
@@ -13,25 +16,29 @@ import math
 import os
 import shlex
 import shutil
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
 from agents.config import ALGOS, CONFIG_DIR, env_name, load_config, read_yaml
-from agents.evaluation import EVAL_SEED, AgentFactory, EvalResult, agent_factories, evaluate_agents, load_learned
+from agents.evaluation import EVAL_SEED, EvalResult, SeededFactories, agent_factories, evaluate_agents, load_seeded
+from agents.multiseed import seed_configs, train_seeds
 from agents.plots import save_episode_gif, save_score_chart, save_trajectory_plot
-from agents.training import CHECKPOINT_DIR, MODEL_FILE, train
+from agents.training import CHECKPOINT_DIR, seed_dir, seed_runs
 
 PRETRAINED_DIR = Path(__file__).resolve().parent / "pretrained"
 """The shipped learned agents: ``<Env-v0>/<algo>/``."""
+DEFAULT_SEEDS = (0, 1, 2)
+"""Training seeds of a retrained agent (as of the shipped core agents)."""
 BY_PRODUCTS = (CHECKPOINT_DIR, "eval", "tb")
 """Training by-products a retrained shipped agent does not keep."""
 
 
 def find_models(models_dir: Path, env_id: str, algos: Sequence[str]) -> dict[str, Path]:
-    """The run directories of ``env_id``'s learned agents under ``models_dir``, by algorithm."""
+    """The agent directories of ``env_id``'s learned agents under ``models_dir`` that hold a trained run, by
+    algorithm."""
     base = Path(models_dir) / env_name(env_id)
-    return {algo: base / algo for algo in algos if (base / algo / MODEL_FILE).is_file()}
+    return {algo: base / algo for algo in algos if seed_runs(base / algo)}
 
 
 def configured_algos(env_id: str, algos: Sequence[str]) -> list[str]:
@@ -44,31 +51,65 @@ def _display(path: Path) -> str:
     return os.path.relpath(path) if Path(path).resolve().is_relative_to(Path.cwd()) else str(path)
 
 
-def train_command(env_id: str, algo: str, out: Path, timesteps: int | None = None) -> str:
-    """The ``vegym train`` command that trains ``algo`` on ``env_id`` from the committed config into ``out``."""
-    args = ["vegym", "train", "--env", env_name(env_id), "--algo", algo, "--out", _display(out)]
+def train_command(
+    env_id: str,
+    algo: str,
+    out: Path,
+    timesteps: int | None = None,
+    *,
+    seed: int | None = None,
+    seeds: Sequence[int] | None = None,
+) -> str:
+    """The ``vegym train`` command that trains ``algo`` on ``env_id`` from the committed config into ``out``:
+    with ``seed``, that seed's run; with ``seeds``, one run per seed in ``out/seed_<k>``."""
+    args = ["vegym", "train", "--env", env_name(env_id), "--algo", algo]
+    if seed is not None:
+        args += ["--seed", str(seed)]
+    if seeds is not None:
+        args += ["--seeds", ",".join(map(str, seeds))]
+    args += ["--out", _display(out)]
     if timesteps is not None:
         args += ["--timesteps", str(timesteps)]
     return shlex.join(args)
 
 
 def retrain(
-    env_id: str, models_dir: Path, algos: Sequence[str], timesteps: int | None = None, progress_bar: bool = True
+    env_id: str,
+    models_dir: Path,
+    algos: Sequence[str],
+    seeds: Sequence[int] = DEFAULT_SEEDS,
+    jobs: int = 2,
+    timesteps: int | None = None,
+    progress_bar: bool = True,
+    log: Callable[[str], None] = print,
 ) -> dict[str, Path]:
-    """Train every configured algorithm of ``algos`` on ``env_id`` afresh into ``<models_dir>/<Env-v0>/<algo>``."""
-    runs = {}
+    """Train every configured algorithm of ``algos`` on ``env_id`` afresh, one run per seed, into
+    ``<models_dir>/<Env-v0>/<algo>/seed_<k>``; RuntimeError if a seed fails, KeyboardInterrupt if stopped."""
+    agents = {}
     for algo in configured_algos(env_id, algos):
         out = Path(models_dir) / env_name(env_id) / algo
         shutil.rmtree(out, ignore_errors=True)
         overrides = {} if timesteps is None else {"n_timesteps": timesteps}
         config = load_config(CONFIG_DIR / f"{algo}.yml", env_id, algo, overrides)
-        result = train(config, out, progress_bar=progress_bar, command=train_command(env_id, algo, out, timesteps))
-        if result.interrupted:
+        commands = {s: train_command(env_id, algo, seed_dir(out, s), timesteps, seed=s) for s in seeds}
+        outcomes = train_seeds(
+            seed_configs(config, seeds, out, resume=False),
+            out,
+            jobs=jobs,
+            commands=commands,
+            progress_bar=progress_bar,
+            log=log,
+        )
+        if any(o.result is not None and o.result.interrupted for o in outcomes):
             raise KeyboardInterrupt
-        for name in BY_PRODUCTS:
-            shutil.rmtree(out / name, ignore_errors=True)
-        runs[algo] = out
-    return runs
+        failed = [o for o in outcomes if o.error is not None]
+        if failed:
+            raise RuntimeError(f"{env_id} {algo}: seed {failed[0].seed} failed: {failed[0].error}")
+        for seed in seeds:
+            for name in BY_PRODUCTS:
+                shutil.rmtree(seed_dir(out, seed) / name, ignore_errors=True)
+        agents[algo] = out
+    return agents
 
 
 def _missing_note(env_id: str, models_dir: Path, algos: Sequence[str]) -> str:
@@ -76,22 +117,24 @@ def _missing_note(env_id: str, models_dir: Path, algos: Sequence[str]) -> str:
     where = _display(Path(models_dir) / env_name(env_id))
     configured = configured_algos(env_id, algos)
     if configured:
-        command = train_command(env_id, configured[0], Path(models_dir) / env_name(env_id) / configured[0])
+        out = Path(models_dir) / env_name(env_id) / configured[0]
+        command = train_command(env_id, configured[0], out, seeds=DEFAULT_SEEDS)
         how = f"train one: `{command}`"
     else:
         how = f"no entry for {env_id} in configs/{{{','.join(algos)}}}.yml yet"
     return f"no learned agent in {where}; showing the analytic and random agents only ({how})"
 
 
-def _learned(runs: dict[str, Path], env_id: str) -> tuple[dict[str, AgentFactory], dict[str, Any]]:
-    """Factories of the learned agents and the env kwargs they share (ValueError if they differ)."""
-    factories: dict[str, AgentFactory] = {}
+def _learned(agents: dict[str, Path], env_id: str) -> tuple[dict[str, SeededFactories], dict[str, Any]]:
+    """Factories of the learned agents (one per training seed) and the env kwargs they share (ValueError if
+    they differ)."""
+    factories: dict[str, SeededFactories] = {}
     env_kwargs: dict[str, dict[str, Any]] = {}
-    for algo, path in runs.items():
-        agent, config = load_learned(path)
+    for algo, path in agents.items():
+        seeded, config = load_seeded(path)
         if config.env_id != env_id:
             raise ValueError(f"{path}: trained on {config.env_id}, not {env_id}")
-        factories[algo] = lambda env, agent=agent: agent
+        factories[algo] = seeded
         env_kwargs[algo] = config.env_kwargs
     distinct = {json.dumps(kw, sort_keys=True) for kw in env_kwargs.values()}
     if len(distinct) > 1:
@@ -105,7 +148,23 @@ def _fmt(value: float | None, digits: int = 3) -> str:
     return f"{value:.{digits}g}" if abs(value) >= 1e4 or (value != 0 and abs(value) < 1e-3) else f"{value:.{digits}f}"
 
 
-TABLE_COLUMNS = ("env", "agent", "return (mean ± std)", "success", "normalized", "vs reference", "control metrics")
+TABLE_COLUMNS = (
+    "env",
+    "agent",
+    "seeds",
+    "return (mean ± std)",
+    "success",
+    "normalized [95% CI]",
+    "IQM [95% CI]",
+    "vs reference",
+    "control metrics",
+)
+
+
+def _with_ci(value: float | None, interval: Sequence[float] | None) -> str:
+    if value is None:
+        return "-"
+    return _fmt(value) if interval is None else f"{_fmt(value)} [{_fmt(interval[0])}, {_fmt(interval[1])}]"
 
 
 def table_rows(records: Sequence[dict[str, Any]]) -> list[list[str]]:
@@ -118,9 +177,11 @@ def table_rows(records: Sequence[dict[str, Any]]) -> list[list[str]]:
             [
                 env_name(r["env_id"]),
                 r["agent"],
+                "-" if r["seeds"] is None else str(len(r["seeds"])),
                 f"{_fmt(r['mean_return'])} ± {_fmt(r['std_return'])}",
                 "-" if r["success_rate"] is None else f"{100 * r['success_rate']:.0f}%",
-                _fmt(r["normalized_score"]),
+                _with_ci(r["normalized_score"], r["ci95_normalized_score"]),
+                _with_ci(r["iqm_normalized_score"], r["ci95_iqm_normalized_score"]),
                 vs,
                 metrics,
             ]
@@ -135,9 +196,12 @@ def markdown(
     lines = [
         "# vegym compare",
         "",
-        f"{episodes} episodes per env and agent, seeds {seed}..{seed + episodes - 1}, deterministic actions. "
-        "normalized = (R - R_random) / (R_analytic - R_random); *vs reference*: the same against a stronger "
-        "reference (BouncingBall: `oracle`, the exact optimum knowing every future target).",
+        f"{episodes} episodes per env and agent (and per training seed of a learned agent; *seeds*: how many), "
+        f"episode seeds {seed}..{seed + episodes - 1}, deterministic actions. "
+        "normalized = (R - R_random) / (R_analytic - R_random) per episode, averaged; IQM: the interquartile mean "
+        "of the same scores; [95% CI]: stratified bootstrap over training seeds and episodes (rliable); "
+        "*vs reference*: the mean against a stronger reference (BouncingBall: `oracle`, the exact optimum knowing "
+        "every future target).",
         "",
         "| " + " | ".join(TABLE_COLUMNS) + " |",
         "|" + "---|" * len(TABLE_COLUMNS),
@@ -157,6 +221,8 @@ def compare(
     models_dir: Path = PRETRAINED_DIR,
     algos: Sequence[str] = tuple(ALGOS),
     retrain_agents: bool = False,
+    seeds: Sequence[int] = DEFAULT_SEEDS,
+    jobs: int = 2,
     timesteps: int | None = None,
     progress_bar: bool = True,
     log: Callable[[str], None] = print,
@@ -171,7 +237,7 @@ def compare(
         name = env_name(env_id)
         if retrain_agents:
             log(f"{name}: retraining {', '.join(configured_algos(env_id, algos)) or 'nothing (no config entry)'}")
-            retrain(env_id, models_dir, algos, timesteps, progress_bar)
+            retrain(env_id, models_dir, algos, seeds, jobs, timesteps, progress_bar, log)
         runs = find_models(models_dir, env_id, algos)
         if not runs:
             notes.append(f"{name}: {_missing_note(env_id, models_dir, algos)}")
@@ -184,6 +250,8 @@ def compare(
         save_trajectory_plot(shown, out / f"{name}_trajectory.png", env_kwargs)
         images.append(f"{name}_trajectory.png")
         for agent, factory in agent_factories(env_id, factories, seed).items():
+            if isinstance(factory, Mapping):
+                factory = next(iter(factory.values()))
             save_episode_gif(env_id, factory, seed, out / f"{name}_{agent}.gif", env_kwargs)
             images.append(f"{name}_{agent}.gif")
     (out / "compare.json").write_text(json.dumps(records, indent=2) + "\n")

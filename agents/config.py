@@ -385,12 +385,18 @@ def _check(c: TrainConfig, where: str) -> None:
                 resolve_class(value, *NAMED_CLASSES[key])
             except ValueError as exc:
                 raise ConfigError(f"{where}: policy_kwargs: {key}: {exc}") from None
-    spec = vegym.ENVS[c.env_id]
-    registered = dict(gym.spec(c.env_id).kwargs)
     try:
-        load_object(f"{spec['module']}:{spec['env']}").task_cls.params_cls(**{**registered, **c.env_kwargs})
+        env_params(c.env_id, c.env_kwargs)
     except (TypeError, ValueError) as exc:
         raise ConfigError(f"{where}: env_kwargs: {exc}") from None
+
+
+def env_params(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
+    """The params dataclass ``gymnasium.make(env_id, **env_kwargs)`` would build (TypeError for an unknown
+    parameter, ValueError for a value out of range), without making the env."""
+    spec = vegym.ENVS[env_id]
+    registered = dict(gym.spec(env_id).kwargs)
+    return load_object(f"{spec['module']}:{spec['env']}").task_cls.params_cls(**{**registered, **env_kwargs})
 
 
 def read_yaml(path: Path) -> Any:

@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -24,7 +25,8 @@ from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
 from agents.analytic import AircraftDraftCompensatingAutopilot, BouncingBallOracle, controller_for
 from agents.config import TrainConfig, load_resolved
-from agents.training import CONFIG_FILE, MODEL_FILE, normalize_path
+from agents.statistics import ScoreSummary, summarize
+from agents.training import CONFIG_FILE, MODEL_FILE, normalize_path, seed_runs
 
 EVAL_SEED = 1000
 """First episode seed of evaluations; training uses small seeds, so the episodes differ."""
@@ -33,6 +35,8 @@ Agent = Any
 """Anything with SB3's ``predict(observation, state, episode_start, deterministic) -> (action, state)``."""
 AgentFactory = Callable[[gym.Env], Agent]
 """Builds an agent for the single env it will act in (privileged references read that env's state)."""
+SeededFactories = Mapping[int, AgentFactory]
+"""One agent trained on several seeds: a factory per training seed, each evaluated on the same episodes."""
 
 
 class RandomAgent:
@@ -90,6 +94,27 @@ def load_learned(path: Path) -> tuple[LearnedAgent, TrainConfig]:
         normalizer = VecNormalize.load(str(stats), dummy)
         normalizer.training = False
     return LearnedAgent(model, normalizer), config
+
+
+def load_seeded(agent_dir: Path) -> tuple[dict[int, AgentFactory], TrainConfig]:
+    """Factories of an agent's trained runs by training seed (:func:`agents.training.seed_runs`) and the config
+    of its first seed; ValueError if there is none or the runs differ in env, algorithm or env kwargs."""
+    runs = seed_runs(Path(agent_dir))
+    if not runs:
+        raise ValueError(f"agent {str(agent_dir)!r}: no model.zip in it or in its seed_<k>/ directories")
+    factories: dict[int, AgentFactory] = {}
+    configs: dict[int, TrainConfig] = {}
+    for seed, path in runs.items():
+        agent, configs[seed] = load_learned(path)
+        factories[seed] = lambda env, agent=agent: agent
+    first = next(iter(configs.values()))
+    for seed, config in configs.items():
+        if (config.env_id, config.algo, config.env_kwargs) != (first.env_id, first.algo, first.env_kwargs):
+            raise ValueError(
+                f"agent {str(agent_dir)!r}: seed {seed} is {config.algo} on {config.env_id} with env_kwargs "
+                f"{config.env_kwargs}, unlike the first seed's {first.algo} on {first.env_id} with {first.env_kwargs}"
+            )
+    return factories, first
 
 
 REFERENCE_AGENTS: dict[str, dict[str, AgentFactory]] = {
@@ -168,18 +193,45 @@ also gets ``episode_length``. A new env adds its entry here."""
 
 @dataclass
 class EvalResult:
-    """An agent's evaluation on one env; :meth:`record` is its JSON form."""
+    """An agent's evaluation on one env; :meth:`record` is its JSON form.
+
+    ``runs`` holds one list of episodes per training seed (``training_seeds``, None for agents that are not
+    trained), every list over the same evaluation seeds ``seed, seed + 1, ...``.
+    """
 
     env_id: str
     agent: str
     seed: int
-    episodes: list[Episode]
-    normalized_score: float | None = None
+    runs: list[list[Episode]]
+    training_seeds: list[int] | None = None
+    normalized_scores: np.ndarray | None = None
+    """Per-episode normalized scores, shape ``(runs, episodes)``; :func:`score` fills them (None if the
+    references tie)."""
     normalized_score_vs: dict[str, float | None] = field(default_factory=dict)
 
     @property
+    def normalized_score(self) -> float | None:
+        """Mean normalized score over every episode of every run (1: the analytic controller)."""
+        return None if self.normalized_scores is None else float(self.normalized_scores.mean())
+
+    @cached_property
+    def summary(self) -> ScoreSummary | None:
+        """Mean, IQM and their 95% stratified-bootstrap CIs of :attr:`normalized_scores`."""
+        return None if self.normalized_scores is None else summarize(self.normalized_scores)
+
+    @property
+    def episodes(self) -> list[Episode]:
+        """Every evaluated episode, run after run."""
+        return [ep for run in self.runs for ep in run]
+
+    @property
     def returns(self) -> np.ndarray:
+        """Returns of every episode, run after run (flat)."""
         return np.array([ep.ret for ep in self.episodes])
+
+    def return_matrix(self) -> np.ndarray:
+        """Returns, shape ``(runs, episodes)``."""
+        return np.array([[ep.ret for ep in run] for run in self.runs])
 
     @property
     def success_rate(self) -> float | None:
@@ -192,19 +244,32 @@ class EvalResult:
         return {name: float(np.mean([fn(ep) for ep in self.episodes])) for name, fn in table.items()}
 
     def record(self) -> dict[str, Any]:
+        """The JSON record: returns over every episode of every run, normalized-score statistics, metrics."""
         returns = self.returns
+        summary = self.summary
         return {
             "env_id": self.env_id,
             "agent": self.agent,
-            "episodes": len(self.episodes),
+            "seeds": self.training_seeds,
+            "episodes": len(self.runs[0]),
             "seed": self.seed,
             "mean_return": float(returns.mean()),
             "std_return": float(returns.std()),
             "success_rate": self.success_rate,
             "normalized_score": self.normalized_score,
+            "iqm_normalized_score": None if summary is None else summary.iqm,
+            "ci95_normalized_score": None if summary is None else list(summary.mean_ci95),
+            "ci95_iqm_normalized_score": None if summary is None else list(summary.iqm_ci95),
+            "normalized_score_per_seed": self._per_seed_scores(),
             "normalized_score_vs": dict(self.normalized_score_vs),
             "metrics": self.metrics(),
         }
+
+    def _per_seed_scores(self) -> dict[str, float] | None:
+        """Mean normalized score of each training seed's run (None for agents that are not trained)."""
+        if self.training_seeds is None or self.normalized_scores is None:
+            return None
+        return {str(s): float(row.mean()) for s, row in zip(self.training_seeds, self.normalized_scores, strict=True)}
 
 
 def run_episode(env: gym.Env, agent: Agent, seed: int) -> Episode:
@@ -238,7 +303,7 @@ def evaluate(
     env = gym.make(env_id, **dict(env_kwargs or {}))
     try:
         actor = factory(env)
-        return EvalResult(env_id, agent, seed, [run_episode(env, actor, seed + k) for k in range(episodes)])
+        return EvalResult(env_id, agent, seed, [[run_episode(env, actor, seed + k) for k in range(episodes)]])
     finally:
         env.close()
 
@@ -249,44 +314,76 @@ def normalized(value: float, low: float, high: float) -> float | None:
 
 
 def score(results: list[EvalResult]) -> None:
-    """Fill the normalized scores of one env's results (they must include ``analytic`` and ``random``)."""
+    """Fill the normalized scores of one env's results (they must include ``analytic`` and ``random``).
+
+    Every episode's return R is normalized by the mean returns of the random policy and the analytic
+    controller over the same episodes, ``(R - R_random) / (R_analytic - R_random)``; its mean over the episodes is
+    the normalized mean return.
+    """
     means = {r.agent: float(r.returns.mean()) for r in results}
     for name in ("analytic", "random"):
         if name not in means:
             raise ValueError(f"normalized scores need the {name!r} agent's result")
+    low, high = means["random"], means["analytic"]
     references = [r.agent for r in results if r.agent in REFERENCE_AGENTS.get(results[0].env_id, {})]
     for r in results:
-        r.normalized_score = normalized(means[r.agent], means["random"], means["analytic"])
+        tie = normalized(high, low, high) is None
+        r.normalized_scores = None if tie else (r.return_matrix() - low) / (high - low)
         r.normalized_score_vs = {ref: normalized(means[r.agent], means["random"], means[ref]) for ref in references}
 
 
-def agent_factories(env_id: str, extra: Mapping[str, AgentFactory], seed: int = EVAL_SEED) -> dict[str, AgentFactory]:
+def agent_factories(
+    env_id: str, extra: Mapping[str, AgentFactory | SeededFactories], seed: int = EVAL_SEED
+) -> dict[str, AgentFactory | SeededFactories]:
     """``analytic``, ``random`` and the env's references, then ``extra``: the agents an env is evaluated with."""
-    agents: dict[str, AgentFactory] = {name: make(seed) for name, make in BASELINES.items()}
+    agents: dict[str, AgentFactory | SeededFactories] = {name: make(seed) for name, make in BASELINES.items()}
     agents.update(REFERENCE_AGENTS.get(env_id, {}))
     agents.update(extra)
     return agents
 
 
+def evaluate_seeds(
+    env_id: str,
+    agent: str,
+    factories: SeededFactories,
+    episodes: int = 20,
+    seed: int = EVAL_SEED,
+    env_kwargs: Mapping[str, Any] | None = None,
+) -> EvalResult:
+    """:func:`evaluate` for each training seed's agent on the same episodes: one run per training seed."""
+    runs = [evaluate(env_id, agent, f, episodes, seed, env_kwargs).runs[0] for f in factories.values()]
+    return EvalResult(env_id, agent, seed, runs, training_seeds=list(factories))
+
+
 def evaluate_agents(
     env_id: str,
-    factories: Mapping[str, AgentFactory],
+    factories: Mapping[str, AgentFactory | SeededFactories],
     episodes: int = 20,
     seed: int = EVAL_SEED,
     env_kwargs: Mapping[str, Any] | None = None,
 ) -> list[EvalResult]:
-    """The baselines, the env's references and ``factories`` on the same seeds, with normalized scores."""
-    agents = agent_factories(env_id, factories, seed)
-    results = [evaluate(env_id, name, f, episodes, seed, env_kwargs) for name, f in agents.items()]
+    """The baselines, the env's references and ``factories`` on the same seeds, with normalized scores.
+
+    A factory given as a mapping of training seeds to factories is evaluated once per training seed.
+    """
+    results = []
+    for name, f in agent_factories(env_id, factories, seed).items():
+        if isinstance(f, Mapping):
+            results.append(evaluate_seeds(env_id, name, f, episodes, seed, env_kwargs))
+        else:
+            results.append(evaluate(env_id, name, f, episodes, seed, env_kwargs))
     score(results)
     return results
 
 
-def agent_factory(spec: str, env_id: str, seed: int = EVAL_SEED) -> tuple[str, AgentFactory, TrainConfig | None]:
+def agent_factory(
+    spec: str, env_id: str, seed: int = EVAL_SEED
+) -> tuple[str, AgentFactory | SeededFactories, TrainConfig | None]:
     """Name, factory and (for a trained model) config of an agent named on the command line.
 
     ``spec`` is ``analytic``, ``random``, a reference of the env (e.g. ``oracle`` for BouncingBall) or the path
-    of a trained model (run directory or zip) for the same env.
+    of a trained model for the same env: a run directory or zip, or a directory of ``seed_<k>/`` runs (then the
+    factory is one per training seed).
     """
     if spec in BASELINES:
         return spec, BASELINES[spec](seed), None
@@ -296,7 +393,13 @@ def agent_factory(spec: str, env_id: str, seed: int = EVAL_SEED) -> tuple[str, A
     if not Path(spec).exists():
         choices = ", ".join([*BASELINES, *references, "PATH"])
         raise ValueError(f"agent {spec!r} is neither a model path nor one of {choices}")
-    learned, config = load_learned(Path(spec))
+    path = Path(spec)
+    if path.is_dir() and not (path / MODEL_FILE).is_file():
+        factory: AgentFactory | SeededFactories
+        factory, config = load_seeded(path)
+    else:
+        learned, config = load_learned(path)
+        factory = lambda env: learned  # noqa: E731
     if config.env_id != env_id:
         raise ValueError(f"agent {spec!r} was trained on {config.env_id}, not {env_id}")
-    return config.algo, lambda env: learned, config
+    return config.algo, factory, config

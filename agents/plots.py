@@ -166,7 +166,8 @@ def save_trajectory_plot(
 
 
 def save_score_chart(records: Sequence[dict], path: Path) -> None:
-    """Bars of the normalized score per env and agent (random, 0 by definition, left out)."""
+    """Bars of the mean normalized score per env and agent with its 95% CI as an error bar (random, 0 by
+    definition, left out)."""
     envs = list(dict.fromkeys(r["env_id"] for r in records))
     agents = list(dict.fromkeys(r["agent"] for r in records if r["agent"] != "random"))
     colors = {agent: f"C{k}" for k, agent in enumerate(agents)}
@@ -178,14 +179,17 @@ def save_score_chart(records: Sequence[dict], path: Path) -> None:
         shown = [r for r in records if r["env_id"] == env_id and r["agent"] != "random"]
         for k, r in enumerate(shown):
             value = r["normalized_score"] if r["normalized_score"] is not None else np.nan
+            interval = r["ci95_normalized_score"]
+            error = None if interval is None else [[value - interval[0]], [interval[1] - value]]
             label = None if r["agent"] in labelled else r["agent"]
             labelled.add(r["agent"])
-            ax.bar(i + (k - (len(shown) - 1) / 2) * width, value, width, color=colors[r["agent"]], label=label)
+            x = i + (k - (len(shown) - 1) / 2) * width
+            ax.bar(x, value, width, color=colors[r["agent"]], label=label, yerr=error, capsize=2, ecolor="0.3")
     ax.axhline(1.0, color="k", linewidth=0.8)
     ax.axhline(0.9, color="k", linewidth=0.8, linestyle="--")
     ax.set_xticks(np.arange(len(envs)), [env_name(e) for e in envs])
     ax.set_ylabel("normalized score")
-    ax.set_title("(R - R_random) / (R_analytic - R_random); dashed: 0.9")
+    ax.set_title("(R - R_random) / (R_analytic - R_random), 95% CI over seeds and episodes; dashed: 0.9")
     ax.legend(fontsize="small")
     fig.tight_layout()
     fig.savefig(path, dpi=100)

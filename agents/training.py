@@ -4,7 +4,9 @@ A run directory holds ``model.zip``, ``config.yml`` (the resolved config), ``vec
 normalisation), ``checkpoints/``, ``eval/evaluations.npz``, ``train_stats.json`` (steps and wall time),
 ``command.txt`` (when started from the CLI) and ``tb/`` (TensorBoard, only if it is installed). Ctrl-C stops
 training at the next env step and saves the model; ``resume=True`` continues from the newest of the
-checkpoints and ``model.zip``.
+checkpoints and ``model.zip``. Several training seeds of one agent live in ``seed_<k>/`` run directories
+below one agent directory (:func:`seed_dir`, :func:`seed_runs`; trained in parallel by
+:mod:`agents.multiseed`).
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ import signal
 import threading
 import time
 import zipfile
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -37,6 +40,7 @@ REPLAY_FILE = "replay_buffer.pkl"
 STATS_FILE = "train_stats.json"
 CHECKPOINT_DIR = "checkpoints"
 CHECKPOINT_PREFIX = "model"
+SEED_DIR_PREFIX = "seed_"
 EVAL_SEED_OFFSET = 10_000
 """The training-time evaluation env is seeded ``seed + EVAL_SEED_OFFSET`` (apart from the training episodes)."""
 
@@ -71,6 +75,25 @@ def normalize_path(model_path: Path) -> Path:
     if match:
         return model_path.with_name(f"{CHECKPOINT_PREFIX}_vecnormalize_{match.group(1)}_steps.pkl")
     return model_path.with_name(NORMALIZE_FILE)
+
+
+def seed_dir(out: Path, seed: int) -> Path:
+    """The run directory of training seed ``seed`` in a multi-seed run ``out``: ``out/seed_<seed>``."""
+    return Path(out) / f"{SEED_DIR_PREFIX}{seed}"
+
+
+def seed_runs(agent_dir: Path) -> dict[int, Path]:
+    """The trained runs of one agent by training seed: ``agent_dir`` itself if it holds a model (one seed, the
+    one in its config), else its ``seed_<k>/`` directories holding a model; empty if there is none."""
+    agent_dir = Path(agent_dir)
+    if (agent_dir / MODEL_FILE).is_file():
+        return {load_resolved(agent_dir / CONFIG_FILE).seed: agent_dir}
+    runs = {}
+    for path in agent_dir.glob(f"{SEED_DIR_PREFIX}*"):
+        suffix = path.name[len(SEED_DIR_PREFIX) :]
+        if suffix.isdigit() and (path / MODEL_FILE).is_file():
+            runs[int(suffix)] = path
+    return dict(sorted(runs.items()))
 
 
 def latest_model(run_dir: Path) -> Path | None:
@@ -127,8 +150,12 @@ def train(
     resume: bool = False,
     progress_bar: bool = True,
     command: str | None = None,
+    callbacks: Sequence[BaseCallback] = (),
 ) -> TrainResult:
-    """Train ``config`` into the run directory ``out`` (see the module docstring); ``resume`` continues it."""
+    """Train ``config`` into the run directory ``out`` (see the module docstring); ``resume`` continues it.
+
+    ``callbacks`` run beside the checkpoint, evaluation and Ctrl-C callbacks (progress reports, pruning).
+    """
     out = Path(out)
     start = time.perf_counter()
     source = latest_model(out) if out.exists() else None
@@ -159,7 +186,7 @@ def train(
         if isinstance(model, OffPolicyAlgorithm) and source.name == MODEL_FILE and replay.exists():
             model.load_replay_buffer(replay)
     stop = StopOnSigint()
-    callbacks = [
+    all_callbacks = [
         CheckpointCallback(
             max(config.save_freq // config.n_envs, 1),
             str(out / CHECKPOINT_DIR),
@@ -175,12 +202,13 @@ def train(
             verbose=1,
         ),
         stop,
+        *callbacks,
     ]
     remaining = config.n_timesteps - done
     if remaining > 0:
         model.learn(
             remaining,
-            callback=callbacks,
+            callback=all_callbacks,
             progress_bar=progress_bar and _progress_bar_available(),
             reset_num_timesteps=source is None,
             tb_log_name=config.algo,

@@ -336,7 +336,8 @@ REQUIRED = {"env_id", "agent", "episodes", "mean_return", "std_return", "success
 def test_compare_retrains_on_a_tiny_budget_and_writes_every_file(tmp_path: Path) -> None:
     out, models = tmp_path / "out", tmp_path / "models"
     args = ["compare", "--envs", "BouncingBall-v0", "Projectile-v0", "--episodes", "2", "--out", str(out)]
-    proc = run_cli(*args, "--models", str(models), "--retrain", "--algos", "ppo", "--timesteps", "256", "--no-progress")
+    retrain = ["--retrain", "--seeds", "0,1", "--algos", "ppo", "--timesteps", "256", "--no-progress"]
+    proc = run_cli(*args, "--models", str(models), *retrain)
     assert proc.returncode == 0, proc.stdout + proc.stderr
     records = json.loads((out / "compare.json").read_text())
     agents = {(r["env_id"], r["agent"]) for r in records}
@@ -346,19 +347,55 @@ def test_compare_retrains_on_a_tiny_budget_and_writes_every_file(tmp_path: Path)
     }
     for r in records:
         assert REQUIRED <= r.keys() and r["episodes"] == 2
-    assert {r["normalized_score"] for r in records if r["agent"] in ("analytic", "random")} == {0.0, 1.0}
+        low, high = r["ci95_normalized_score"]
+        assert low <= r["normalized_score"] <= high
+        low, high = r["ci95_iqm_normalized_score"]
+        assert low <= r["iqm_normalized_score"] <= high
+        if r["agent"] == "ppo":
+            assert r["seeds"] == [0, 1] and set(r["normalized_score_per_seed"]) == {"0", "1"}
+            assert np.mean(list(r["normalized_score_per_seed"].values())) == pytest.approx(r["normalized_score"])
+        else:
+            assert r["seeds"] is None and r["normalized_score_per_seed"] is None
+    scores = {r["agent"]: r["normalized_score"] for r in records if r["agent"] in ("analytic", "random")}
+    assert scores == {"analytic": pytest.approx(1.0), "random": pytest.approx(0.0)}
     markdown = (out / "compare.md").read_text()
     for name in ("BouncingBall-v0", "Projectile-v0"):
         assert (out / f"{name}_trajectory.png").stat().st_size > 0
         for agent in ("analytic", "random", "ppo"):
             assert (out / f"{name}_{agent}.gif").stat().st_size > 0
             assert f"| {name} | {agent} |" in markdown
-        run = models / name / "ppo"
-        assert (run / "model.zip").is_file() and not (run / "checkpoints").exists()
-        command = f"vegym train --env {name} --algo ppo --out {run} --timesteps 256"
-        assert (run / "command.txt").read_text().strip() == command
+        for seed in (0, 1):
+            run = models / name / "ppo" / f"seed_{seed}"
+            assert (run / "model.zip").is_file() and not (run / "checkpoints").exists()
+            assert load_learned(run)[1].seed == seed
+            command = f"vegym train --env {name} --algo ppo --seed {seed} --out {run} --timesteps 256"
+            assert (run / "command.txt").read_text().strip() == command
     assert (out / "BouncingBall-v0_oracle.gif").stat().st_size > 0
     assert (out / "normalized_scores.png").stat().st_size > 0
+
+
+def test_train_seeds_trains_each_seed_and_reports_a_failed_one(tmp_path: Path) -> None:
+    """--seeds trains one run per seed in parallel; a seed that fails is named and the others still finish."""
+    out = tmp_path / "agent"
+    args = ["train", "--env", "Projectile-v0", "--algo", "ppo", "--timesteps", "256", "--out", str(out)]
+    first = run_cli(*args, "--seeds", "3", "--no-progress")
+    assert first.returncode == 0, first.stdout + first.stderr
+    proc = run_cli(*args, "--seeds", "1,2,3", "--jobs", "2", "--no-progress")
+    assert proc.returncode == 1, proc.stdout + proc.stderr
+    assert "seed 3: FAILED" in proc.stdout and "already holds a training run" in proc.stdout
+    assert "trained seeds [1, 2]; failed: [3]" in proc.stdout
+    for seed in (1, 2, 3):
+        agent, config = load_learned(out / f"seed_{seed}")
+        assert config.seed == seed and saved_timesteps(out / f"seed_{seed}" / "model.zip") >= 256
+    command = (out / "seed_2" / "command.txt").read_text().strip()
+    assert (
+        command
+        == f"vegym train --env Projectile-v0 --algo ppo --seed 2 --timesteps 256 --out {out / 'seed_2'} --no-progress"
+    )
+    name, factories, config = agent_factory(str(out), "vegym/Projectile-v0")
+    assert name == "ppo" and list(factories) == [1, 2, 3]
+    record = evaluate_agents("vegym/Projectile-v0", {"ppo": factories}, episodes=2)[-1].record()
+    assert record["seeds"] == [1, 2, 3] and len(record["normalized_score_per_seed"]) == 3
 
 
 def test_compare_without_learned_agents_says_so(tmp_path: Path) -> None:
@@ -370,7 +407,7 @@ def test_compare_without_learned_agents_says_so(tmp_path: Path) -> None:
     assert "Projectile-v0: no learned agent" in (out / "compare.md").read_text()
 
 
-@pytest.mark.parametrize("command", ["list", "train", "evaluate", "compare", "demo"])
+@pytest.mark.parametrize("command", ["list", "train", "evaluate", "compare", "sweep", "demo"])
 def test_every_command_has_help(command: str, capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit) as caught:
         main([command, "--help"])

@@ -1,0 +1,174 @@
+"""Training one agent on several seeds at once: one process per seed, at most ``jobs`` at a time.
+
+Each seed trains into its own run directory ``<out>/seed_<k>/`` (:func:`agents.training.seed_dir`) exactly as a
+single ``vegym train --seed k`` would, and reports its progress to the parent, which shows one progress line per
+seed. A seed that fails is reported with its error and the others go on. Ctrl-C reaches every worker (same
+process group): each saves its model at the next step, as a single run does; no seed that has not started is
+started afterwards.
+"""
+
+from __future__ import annotations
+
+import multiprocessing as mp
+import queue
+import time
+import traceback
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from multiprocessing.process import BaseProcess
+from pathlib import Path
+from typing import Any
+
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from stable_baselines3.common.callbacks import BaseCallback
+
+from agents.config import TrainConfig, with_overrides
+from agents.training import TrainResult, resume_config, seed_dir, train
+
+REPORT_EVERY_S = 1.0
+"""Seconds between a worker's progress reports."""
+
+
+@dataclass(frozen=True)
+class SeedOutcome:
+    """How one seed's training ended: its result, or the error that stopped it."""
+
+    seed: int
+    result: TrainResult | None = None
+    error: str | None = None
+
+    @property
+    def ok(self) -> bool:
+        """Trained to the end (not failed, not interrupted)."""
+        return self.result is not None and not self.result.interrupted
+
+
+class _ReportProgress(BaseCallback):
+    """Puts ``("progress", seed, steps)`` on the parent's queue at most every :data:`REPORT_EVERY_S`."""
+
+    def __init__(self, seed: int, channel: Any) -> None:
+        super().__init__()
+        self.seed = seed
+        self.channel = channel
+        self._last = 0.0
+
+    def _on_step(self) -> bool:
+        now = time.monotonic()
+        if now - self._last >= REPORT_EVERY_S:
+            self._last = now
+            self.channel.put(("progress", self.seed, self.num_timesteps))
+        return True
+
+
+def _train_seed(config: TrainConfig, out: Path, resume: bool, command: str | None, threads: int, channel: Any) -> None:
+    """Worker process: train one seed, then put ``("done", seed, result)`` or ``("failed", seed, error)``."""
+    try:
+        import torch
+
+        torch.set_num_threads(threads)
+        result = train(
+            config,
+            out,
+            resume=resume,
+            progress_bar=False,
+            command=command,
+            callbacks=[_ReportProgress(config.seed, channel)],
+        )
+        channel.put(("done", config.seed, result))
+    except KeyboardInterrupt:
+        channel.put(("failed", config.seed, "interrupted before training started"))
+    except Exception as exc:  # reported to the parent, which carries on with the other seeds
+        detail = "".join(traceback.format_exception_only(exc)).strip()
+        channel.put(("failed", config.seed, f"{detail}\n{traceback.format_exc()}"))
+
+
+def seed_configs(config: TrainConfig, seeds: Sequence[int], out: Path, resume: bool) -> dict[int, TrainConfig]:
+    """The config of every seed: ``config`` with its seed replaced, or (``resume``) each seed's saved config."""
+    if resume:
+        return {s: resume_config(seed_dir(out, s), config.n_timesteps) for s in seeds}
+    return {s: with_overrides(config, {"seed": s}, f"seed {s}") for s in seeds}
+
+
+def train_seeds(
+    configs: dict[int, TrainConfig],
+    out: Path,
+    *,
+    jobs: int,
+    resume: bool = False,
+    commands: dict[int, str] | None = None,
+    threads: int = 1,
+    progress_bar: bool = True,
+    log: Callable[[str], None] = print,
+) -> list[SeedOutcome]:
+    """Train every seed's config into ``out/seed_<k>`` in worker processes, ``jobs`` at a time."""
+    if jobs < 1:
+        raise ValueError(f"jobs={jobs!r} must be at least 1")
+    context = mp.get_context("spawn")
+    channel = context.Queue()
+    pending = list(configs)
+    running: dict[int, BaseProcess] = {}
+    outcomes: dict[int, SeedOutcome] = {}
+    stopping = False
+    with Progress(
+        TextColumn("{task.description}"),
+        BarColumn(),
+        MofNCompleteColumn(),
+        TimeElapsedColumn(),
+        disable=not progress_bar,
+    ) as progress:
+        bars = {s: progress.add_task(f"seed {s}", total=configs[s].n_timesteps, start=False) for s in configs}
+        while pending or running:
+            try:
+                while pending and len(running) < jobs and not stopping:
+                    seed = pending.pop(0)
+                    command = (commands or {}).get(seed)
+                    args = (configs[seed], seed_dir(out, seed), resume, command, threads, channel)
+                    running[seed] = context.Process(target=_train_seed, args=args, name=f"vegym-train-seed-{seed}")
+                    running[seed].start()
+                    progress.start_task(bars[seed])
+                    log(f"seed {seed}: training into {seed_dir(out, seed)}")
+                _collect(channel, running, outcomes, progress, bars, log)
+            except KeyboardInterrupt:
+                if stopping:
+                    raise
+                stopping = True
+                log("interrupted: the running seeds save their models; Ctrl-C again to abort")
+        for seed in pending:
+            outcomes[seed] = SeedOutcome(seed, error="not started (interrupted)")
+    return [outcomes[s] for s in configs]
+
+
+def _collect(
+    channel: Any,
+    running: dict[int, BaseProcess],
+    outcomes: dict[int, SeedOutcome],
+    progress: Progress,
+    bars: dict[int, Any],
+    log: Callable[[str], None],
+) -> None:
+    """Apply the workers' messages for up to 0.2 s; reap the workers that have exited."""
+    try:
+        kind, seed, payload = channel.get(timeout=0.2)
+    except queue.Empty:
+        kind = None
+    if kind == "progress":
+        progress.update(bars[seed], completed=payload)
+    elif kind == "done":
+        outcomes[seed] = SeedOutcome(seed, result=payload)
+        progress.update(bars[seed], total=payload.timesteps, completed=payload.timesteps)
+        progress.stop_task(bars[seed])
+        state = "interrupted at" if payload.interrupted else "done after"
+        log(f"seed {seed}: {state} {payload.timesteps} steps in {payload.wall_time_s:.0f} s: {payload.model_path}")
+    elif kind == "failed":
+        outcomes[seed] = SeedOutcome(seed, error=payload)
+        progress.stop_task(bars[seed])
+        log(f"seed {seed}: FAILED: {payload.splitlines()[0]}")
+    for s, process in list(running.items()):
+        if process.exitcode is None:
+            continue
+        if s not in outcomes and channel.empty():
+            outcomes[s] = SeedOutcome(s, error=f"worker exited with code {process.exitcode} without a result")
+            log(f"seed {s}: FAILED: {outcomes[s].error}")
+        if s in outcomes:
+            process.join()
+            del running[s]

@@ -1,0 +1,50 @@
+"""Interval estimates of normalized scores (agents.statistics, rliable's stratified bootstrap)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from scipy import stats
+
+from agents.statistics import summarize
+
+
+def test_constant_scores_have_a_point_interval() -> None:
+    summary = summarize(np.full((3, 20), 0.7))
+    assert summary.mean == pytest.approx(0.7) and summary.iqm == pytest.approx(0.7)
+    assert summary.mean_ci95 == pytest.approx((0.7, 0.7)) and summary.iqm_ci95 == pytest.approx((0.7, 0.7))
+
+
+def test_mean_and_iqm_are_the_closed_forms_and_the_intervals_contain_them() -> None:
+    scores = np.random.default_rng(0).normal(1.0, 0.2, (3, 20))
+    scores[0, :3] = -5.0  # outliers move the mean, not the interquartile mean
+    summary = summarize(scores)
+    assert summary.mean == pytest.approx(scores.mean(), abs=1e-12)
+    assert summary.iqm == pytest.approx(stats.trim_mean(scores.ravel(), 0.25), abs=1e-12)
+    assert summary.mean < summary.iqm
+    assert summary.mean_ci95[0] < summary.mean < summary.mean_ci95[1]
+    assert summary.iqm_ci95[0] < summary.iqm < summary.iqm_ci95[1]
+    assert summarize(scores) == summary  # seeded: a report is reproducible
+
+
+def test_disagreeing_training_seeds_widen_the_interval() -> None:
+    """The bootstrap resamples training seeds: the same episodes with one seed far off give a wider CI."""
+    episodes = np.random.default_rng(1).normal(1.0, 0.05, 20)
+    agree = np.stack([episodes, episodes, episodes])
+    disagree = np.stack([episodes, episodes, episodes - 0.6])
+    width = [np.diff(summarize(m).mean_ci95)[0] for m in (agree, disagree)]
+    assert width[1] > 3 * width[0]
+
+
+def test_one_run_is_bootstrapped_over_episodes() -> None:
+    """An untrained controller has one run; its interval reflects the spread of its episodes."""
+    scores = np.random.default_rng(2).normal(1.0, 0.3, (1, 40))
+    low, high = summarize(scores).mean_ci95
+    half_width = 1.96 * scores.std() / np.sqrt(scores.size)
+    assert high - low == pytest.approx(2 * half_width, rel=0.25)
+
+
+@pytest.mark.parametrize("bad", [np.zeros(5), np.zeros((0, 3)), np.array([[1.0, np.nan]])])
+def test_bad_score_matrices_are_rejected(bad: np.ndarray) -> None:
+    with pytest.raises(ValueError, match="scores must be"):
+        summarize(bad)
