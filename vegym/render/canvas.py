@@ -11,8 +11,8 @@ import numpy as np
 
 try:
     import pygame
-except ImportError as exc:  # pragma: no cover - exercised only without the render extra
-    raise ImportError('rendering needs pygame: pip install "vegym[render]"') from exc
+except ImportError as exc:  # pragma: no cover - pygame is a dependency; a broken install
+    raise ImportError("rendering needs pygame, a dependency of vegym: pip install pygame") from exc
 
 Color = tuple[int, int, int]
 WHITE: Color = (255, 255, 255)

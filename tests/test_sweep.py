@@ -1,0 +1,156 @@
+"""`vegym sweep`: Optuna studies shared by worker processes, on SQLite and (in CI) on PostgreSQL."""
+
+from __future__ import annotations
+
+import os
+import signal
+import sqlite3
+import subprocess
+import sys
+import time
+import uuid
+from pathlib import Path
+
+import optuna
+import pytest
+from optuna.storages import RetryHeartbeatStaleTrialCallback
+from optuna.trial import TrialState
+
+from agents.config import CONFIG_DIR, load_config, load_configs, with_overrides
+from agents.sweep import parse_tune_env, sample_hyperparams
+
+VEGYM = [sys.executable, "-c", "import sys; from agents.cli import main; sys.exit(main())"]
+POSTGRES_URL = os.environ.get("VEGYM_TEST_POSTGRES_URL")
+"""A PostgreSQL database for the scale-out test; .ci/run starts a server on loopback and sets it."""
+
+
+def sweep_args(storage: str, study: str, trials: int, *extra: str) -> list[str]:
+    """A sweep whose trials take a second or two: TD3 on BouncingBall for 300 steps, 2 evaluation episodes."""
+    return [
+        *VEGYM,
+        "sweep",
+        "--env",
+        "BouncingBall-v0",
+        "--algo",
+        "td3",
+        "--trials",
+        str(trials),
+        "--timesteps",
+        "300",
+        "--eval-episodes",
+        "2",
+        "--storage",
+        storage,
+        "--study",
+        study,
+        *extra,
+    ]
+
+
+def trials_by_state(storage: str, study: str) -> dict[TrialState, list[optuna.trial.FrozenTrial]]:
+    trials = optuna.load_study(study_name=study, storage=storage).get_trials()
+    return {state: [t for t in trials if t.state == state] for state in TrialState}
+
+
+def training_trials(database: Path) -> int:
+    """Running trials that have sampled their config (so are training) in a SQLite study file, read without
+    Optuna (which would race the worker creating the file)."""
+    query = (
+        "SELECT COUNT(*) FROM trials JOIN trial_user_attributes USING (trial_id) "
+        "WHERE trials.state = 'RUNNING' AND trial_user_attributes.key = 'config'"
+    )
+    try:
+        with sqlite3.connect(database) as connection:
+            return connection.execute(query).fetchone()[0]
+    except sqlite3.OperationalError:  # no file or no table yet
+        return 0
+
+
+def assert_complete_study(storage: str, study: str, trials: int) -> None:
+    """Exactly ``trials`` finished trials, none running or waiting, numbers unique, every one scored."""
+    by_state = trials_by_state(storage, study)
+    finished = by_state[TrialState.COMPLETE] + by_state[TrialState.PRUNED]
+    assert len(finished) == trials
+    assert not by_state[TrialState.RUNNING] and not by_state[TrialState.WAITING]
+    numbers = [t.number for state in by_state.values() for t in state]
+    assert sorted(numbers) == list(range(len(numbers)))
+    for t in by_state[TrialState.COMPLETE]:
+        assert t.value is not None and "config" in t.user_attrs
+
+
+def run_two_workers(storage: str, study: str, tmp_path: Path) -> None:
+    best = tmp_path / "best.yml"
+    proc = subprocess.run(
+        [*sweep_args(storage, study, 4, "--workers", "2"), "--best", str(best)],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
+    assert proc.returncode == 0, proc.stdout + proc.stderr
+    assert_complete_study(storage, study, 4)
+    assert not trials_by_state(storage, study)[TrialState.FAIL]
+    assert {"worker 0", "worker 1"} <= {line.split(":")[0] for line in proc.stdout.splitlines()}
+    config = load_config(best, "vegym/BouncingBall-v0", "td3")  # the best trial, as a ready config block
+    best_trial = optuna.load_study(study_name=study, storage=storage).best_trial
+    assert config.hyperparams["learning_rate"] == pytest.approx(best_trial.params["learning_rate"])
+    assert config.n_timesteps == 300
+
+
+def test_two_workers_on_sqlite_record_every_trial_once(tmp_path: Path) -> None:
+    run_two_workers(f"sqlite:///{tmp_path / 'study.db'}", "two-workers", tmp_path)
+
+
+@pytest.mark.skipif(POSTGRES_URL is None, reason="set VEGYM_TEST_POSTGRES_URL (.ci/run does) to test PostgreSQL")
+def test_two_workers_on_postgresql_record_every_trial_once(tmp_path: Path) -> None:
+    run_two_workers(POSTGRES_URL, f"two-workers-{uuid.uuid4().hex[:8]}", tmp_path)
+
+
+@pytest.mark.filterwarnings("ignore::optuna.exceptions.ExperimentalWarning")  # retried_trial_number
+def test_killed_worker_leaves_a_study_that_a_second_run_finishes(tmp_path: Path) -> None:
+    storage, study = f"sqlite:///{tmp_path / 'study.db'}", "killed"
+    args = sweep_args(storage, study, 3, "--heartbeat", "1")
+    worker = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
+    deadline = time.monotonic() + 300
+    while not training_trials(tmp_path / "study.db"):
+        if time.monotonic() > deadline:
+            pytest.fail("the worker never started a trial")
+        time.sleep(0.2)
+    os.killpg(worker.pid, signal.SIGKILL)  # mid-trial, no chance to clean up
+    worker.wait(timeout=30)
+    assert trials_by_state(storage, study)[TrialState.RUNNING]
+
+    again = subprocess.run(args, capture_output=True, text=True, timeout=600)
+    assert again.returncode == 0, again.stdout + again.stderr
+    assert_complete_study(storage, study, 3)
+    failed = trials_by_state(storage, study)[TrialState.FAIL]
+    assert len(failed) == 1
+    retried = [
+        t
+        for t in optuna.load_study(study_name=study, storage=storage).get_trials()
+        if RetryHeartbeatStaleTrialCallback.retried_trial_number(t) == failed[0].number
+    ]
+    assert len(retried) == 1 and retried[0].params == failed[0].params
+
+
+@pytest.mark.parametrize("algo", ["ppo", "sac", "td3"])
+def test_sampled_hyperparameters_make_valid_configs(algo: str) -> None:
+    study = optuna.create_study(sampler=optuna.samplers.RandomSampler(seed=0))
+    for env_id in load_configs(CONFIG_DIR / f"{algo}.yml"):
+        base = load_config(CONFIG_DIR / f"{algo}.yml", env_id, algo)
+        for _ in range(5):
+            trial = study.ask()
+            config = with_overrides(base, sample_hyperparams(trial, base), "test")  # ConfigError if invalid
+            if algo == "ppo":
+                assert config.hyperparams["batch_size"] <= config.hyperparams["n_steps"] * config.n_envs
+            study.tell(trial, 0.0)
+
+
+def test_tune_env_ranges_are_checked_against_the_env_parameters() -> None:
+    ranges = parse_tune_env(["bottom_out_penalty=0.5:5"], "vegym/Suspension-v0")
+    assert ranges == {"bottom_out_penalty": (0.5, 5.0)}
+    with pytest.raises(ValueError, match="has no parameter 'nope'"):
+        parse_tune_env(["nope=0:1"], "vegym/Suspension-v0")
+    with pytest.raises(ValueError, match="bottom_out_penalty"):
+        parse_tune_env(["bottom_out_penalty=-1:1"], "vegym/Suspension-v0")
+    with pytest.raises(ValueError, match="expected NAME=LOW:HIGH"):
+        parse_tune_env(["bottom_out_penalty"], "vegym/Suspension-v0")
