@@ -218,8 +218,6 @@ def cmd_compare(args: argparse.Namespace) -> int:
 
 def cmd_sweep(args: argparse.Namespace) -> int:
     """Run (or join, or resume) an Optuna study over the algorithm's hyperparameters."""
-    import torch
-
     from agents.sweep import (
         FINISHED,
         SWEEPS_DIR,
@@ -230,7 +228,6 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         write_best_config,
     )
 
-    torch.set_num_threads(args.threads)
     env_id = resolve_env_id(args.env)
     study_name = args.study or f"{env_name(env_id)}-{args.algo}"
     settings = SweepSettings(
@@ -249,7 +246,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         f"{args.workers} worker(s) here; run the same command elsewhere with this --storage to add workers"
     )
     start = time.perf_counter()
-    study = sweep(settings, args.workers, log=say)
+    study = sweep(settings, args.workers, args.threads, log=say)
     finished = study.get_trials(deepcopy=False, states=FINISHED)
     say(f"{len(finished)} trials finished in the study ({time.perf_counter() - start:.0f} s in this command)")
     out = Path(args.best) if args.best else SWEEPS_DIR / f"{study_name}_best.yml"

@@ -145,6 +145,8 @@ def _learned(agents: dict[str, Path], env_id: str) -> tuple[dict[str, SeededFact
 def _fmt(value: float | None, digits: int = 3) -> str:
     if value is None or (isinstance(value, float) and math.isnan(value)):
         return "-"
+    if abs(value) < 1e-12:
+        value = 0.0  # rounding residue, e.g. the random policy's mean normalized score (0 by definition)
     return f"{value:.{digits}g}" if abs(value) >= 1e4 or (value != 0 and abs(value) < 1e-3) else f"{value:.{digits}f}"
 
 

@@ -21,11 +21,12 @@ from __future__ import annotations
 
 import fcntl
 import multiprocessing as mp
+import sys
 import tempfile
 import time
 import warnings
 import zlib
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -33,6 +34,7 @@ from typing import Any
 import gymnasium as gym
 import optuna
 import sqlalchemy
+import torch
 import yaml
 from optuna.storages import RDBStorage, RetryHeartbeatStaleTrialCallback, fail_stale_trials
 from optuna.trial import TrialState
@@ -234,13 +236,20 @@ def trial_config(trial: optuna.Trial, settings: SweepSettings) -> TrainConfig:
 
 
 class Scorer:
-    """Mean normalized score of an agent on the sweep's evaluation episodes (the references are run once)."""
+    """Mean normalized score of an agent on the sweep's evaluation episodes (the references are run once).
 
-    def __init__(self, env_id: str, episodes: int) -> None:
+    The episodes run on the env of the committed config (``env_kwargs``), never on tuned reward weights, so
+    trials that shape their reward differently are scored on the same task.
+    """
+
+    def __init__(self, env_id: str, episodes: int, env_kwargs: Mapping[str, Any]) -> None:
         self.env_id = env_id
         self.episodes = episodes
+        self.env_kwargs = dict(env_kwargs)
         means = {
-            name: float(evaluate(env_id, name, make(SWEEP_EVAL_SEED), episodes, SWEEP_EVAL_SEED).returns.mean())
+            name: float(
+                evaluate(env_id, name, make(SWEEP_EVAL_SEED), episodes, SWEEP_EVAL_SEED, env_kwargs).returns.mean()
+            )
             for name, make in BASELINES.items()
         }
         self.low, self.high = means["random"], means["analytic"]
@@ -248,7 +257,7 @@ class Scorer:
             raise ValueError(f"{env_id}: the analytic and random agents tie on the sweep episodes")
 
     def __call__(self, agent: Any) -> float:
-        env = gym.make(self.env_id)
+        env = gym.make(self.env_id, **self.env_kwargs)
         try:
             returns = [run_episode(env, agent, SWEEP_EVAL_SEED + k).ret for k in range(self.episodes)]
         finally:
@@ -257,7 +266,7 @@ class Scorer:
 
 
 class ReportAndPrune(BaseCallback):
-    """Evaluates the model ``reports - 1`` times during training, reports to the trial, stops a pruned one."""
+    """Evaluates the model every ``n_timesteps / reports`` steps, reports to the trial, stops a pruned one."""
 
     def __init__(self, trial: optuna.Trial, score: Scorer, n_timesteps: int, reports: int) -> None:
         super().__init__()
@@ -329,7 +338,8 @@ def run_worker(settings: SweepSettings, name: str = "worker", log: Callable[[str
     RuntimeError after three failed trials in a row (a config that cannot train should not loop forever).
     """
     study = load_study(settings)
-    score = Scorer(settings.env_id, settings.eval_episodes)
+    base = load_config(CONFIG_DIR / f"{settings.algo}.yml", settings.env_id, settings.algo)
+    score = Scorer(settings.env_id, settings.eval_episodes, base.env_kwargs)
     lock = StudyLock(settings.storage, settings.study)
     ran = failures = 0
 
@@ -369,29 +379,32 @@ def run_worker(settings: SweepSettings, name: str = "worker", log: Callable[[str
         lock.close()
 
 
-def _worker_process(settings: SweepSettings, name: str) -> None:
-    """Entry point of a ``--workers`` process (spawned: imports afresh)."""
-    import sys
-
+def _worker_process(settings: SweepSettings, name: str, threads: int) -> None:
+    """Entry point of a ``--workers`` process (spawned: imports afresh, so torch's thread count is set again)."""
+    torch.set_num_threads(threads)
     try:
         run_worker(settings, name, log=lambda line: print(line, flush=True))
     except KeyboardInterrupt:
         sys.exit(130)
 
 
-def sweep(settings: SweepSettings, workers: int = 1, log: Callable[[str], None] = print) -> optuna.Study:
-    """Run ``workers`` worker processes on the study (in this process if 1) until it is complete."""
+def sweep(
+    settings: SweepSettings, workers: int = 1, threads: int = 1, log: Callable[[str], None] = print
+) -> optuna.Study:
+    """Run ``workers`` worker processes on the study (in this process if 1) until it is complete; each trains
+    with ``threads`` torch threads."""
     if workers < 1:
         raise ValueError(f"workers={workers!r} must be at least 1")
     if settings.trials < 1:
         raise ValueError(f"trials={settings.trials!r} must be at least 1")
     study = load_study(settings)  # create it once, before the workers race to
     if workers == 1:
+        torch.set_num_threads(threads)
         run_worker(settings, "worker 0", log)
         return study
     context = mp.get_context("spawn")
     processes = [
-        context.Process(target=_worker_process, args=(settings, f"worker {k}"), name=f"vegym-sweep-{k}")
+        context.Process(target=_worker_process, args=(settings, f"worker {k}", threads), name=f"vegym-sweep-{k}")
         for k in range(workers)
     ]
     for process in processes:
