@@ -54,14 +54,31 @@ def next_key(keys: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True)
+def stream_base(key: np.uint64, stream_offset: np.uint64, counter: np.uint64) -> np.uint64:
+    """The mixed state that the lanes of one draw (one key, stream and counter) are taken from (uint64 scalars)."""
+    return _mix_one(key * _GOLDEN + stream_offset + counter * _M2)
+
+
+@njit(cache=True)
+def lane(base: np.uint64, j: int) -> float:
+    """Lane ``j`` of a draw from :func:`stream_base`: a float in [0, 1)."""
+    return np.float64(_mix_one(base + np.uint64(j + 1) * _GOLDEN) >> _S11) * _TO_UNIT
+
+
+@njit(cache=True)
 def _uniform_kernel(keys: np.ndarray, stream_offset: np.uint64, size: int, counters: np.ndarray) -> np.ndarray:
     """:func:`uniform` fused per key: lane j is ``_mix(_mix(key GOLDEN + stream + counter M2) + (j + 1) GOLDEN)``."""
     out = np.empty((len(keys), size))
     for i in range(len(keys)):
-        base = _mix_one(keys[i] * _GOLDEN + stream_offset + counters[i] * _M2)
+        base = stream_base(keys[i], stream_offset, counters[i])
         for j in range(size):
-            out[i, j] = np.float64(_mix_one(base + np.uint64(j + 1) * _GOLDEN) >> _S11) * _TO_UNIT
+            out[i, j] = lane(base, j)
     return out
+
+
+def stream_offset(stream: int) -> np.uint64:
+    """The offset that separates draws of stream number ``stream`` (as the kernels take it)."""
+    return np.uint64((stream * int(_M1)) % 2**64)
 
 
 def uniform(keys: np.ndarray, stream: int, size: int, counter: np.ndarray | int = 0) -> np.ndarray:
@@ -72,8 +89,7 @@ def uniform(keys: np.ndarray, stream: int, size: int, counter: np.ndarray | int 
     """
     keys = np.ascontiguousarray(keys, dtype=np.uint64)
     counters = np.broadcast_to(np.asarray(counter, dtype=np.uint64).reshape(-1), keys.shape)
-    stream_offset = np.uint64((stream * int(_M1)) % 2**64)
-    return _uniform_kernel(keys, stream_offset, size, np.ascontiguousarray(counters))
+    return _uniform_kernel(keys, stream_offset(stream), size, np.ascontiguousarray(counters))
 
 
 def uniform_in(

@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from gymnasium import spaces
+from numba import njit
 
 from vegym import rng
 from vegym.envs.base import Task, Transition, VegymEnv, VegymVectorEnv
@@ -63,6 +64,135 @@ class BouncingBallParams(Params):
         return float(-particle.impact_velocity(self.drop_height, 0.0, self.radius, self.gravity))
 
 
+STEP_CONSTANTS = (
+    "radius",
+    "gravity",
+    "rest_speed",
+    "height_scale",
+    "episode_bounces",
+    "success_error",
+    "target_min",
+    "target_max",
+    "target_ratio_min",
+    "target_ratio_max",
+    "drop_speed",
+)
+"""Parameters the kernels read, in the order of their constants array (SI units, see the fields)."""
+
+
+@njit(cache=True)
+def _target(key: np.uint64, index: int, previous: float, c: np.ndarray, offsets: np.ndarray) -> float:
+    """Target apex number ``index`` (m) of the episode ``key``, from target ``index - 1`` (``previous``, unused for
+    the first). Targets follow a random walk, ``t_k = clip(t_{k-1} U(target_ratio_min, target_ratio_max),
+    target_min, target_max)`` from ``t_0 = U(target_min, target_max)``, drawn from the episode key alone (never
+    from the actions); ``offsets`` are the rng stream offsets of the first target and of the ratios."""
+    target_min, target_max, ratio_min, ratio_max = c[6], c[7], c[8], c[9]
+    if index == 0:
+        return target_min + (target_max - target_min) * rng.lane(rng.stream_base(key, offsets[0], np.uint64(0)), 0)
+    u = rng.lane(rng.stream_base(key, offsets[1], np.uint64(index)), 0)
+    return min(max(previous * (ratio_min + (ratio_max - ratio_min) * u), target_min), target_max)
+
+
+@njit(cache=True)
+def _fill_targets(key: np.uint64, out: np.ndarray, c: np.ndarray, offsets: np.ndarray) -> None:
+    """The first ``len(out)`` targets (m) of the episode ``key``, written into ``out``."""
+    previous = 0.0
+    for k in range(len(out)):
+        previous = out[k] = _target(key, k, previous, c, offsets)
+
+
+@njit(cache=True)
+def _targets_kernel(keys: np.ndarray, count: int, c: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    out = np.empty((len(keys), count))
+    for i in range(len(keys)):
+        _fill_targets(keys[i], out[i], c, offsets)
+    return out
+
+
+@njit(cache=True)
+def _pairwise_sum(values: np.ndarray) -> float:
+    """``np.sum`` of a contiguous 1-d float64 array, bit for bit: numpy's pairwise summation (8 accumulators)."""
+    n = len(values)
+    if n < 8:
+        total = 0.0
+        for x in values:
+            total += x
+        return total
+    if n > 128:
+        half = n // 2
+        half -= half % 8
+        return _pairwise_sum(values[:half]) + _pairwise_sum(values[half:])
+    r = values[:8].copy()
+    for i in range(8, n - n % 8, 8):
+        r += values[i : i + 8]
+    total = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
+    for i in range(n - n % 8, n):
+        total += values[i]
+    return total
+
+
+@njit(cache=True)
+def _step_kernel(
+    action: np.ndarray,
+    speed: np.ndarray,
+    time: np.ndarray,
+    targets: np.ndarray,
+    error_sum: np.ndarray,
+    keys: np.ndarray,
+    step: np.ndarray,
+    c: np.ndarray,
+    offsets: np.ndarray,
+) -> tuple[np.ndarray, ...]:
+    """One impact per episode, fused; ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
+    radius, gravity, rest_speed, height_scale, bounces_planned, success_error = c[0], c[1], c[2], c[3], c[4], c[5]
+    n, lookahead = len(action), targets.shape[1] - 1
+    out = np.empty((6, n))  # next speed, time, error sum, restitution, apex, target
+    new_targets, terms, reward = np.empty_like(targets), np.empty((2, n)), np.empty(n)
+    at_rest, success = np.empty(n, np.bool_), np.empty(n, np.bool_)
+    skipped = np.empty(int(bounces_planned))
+    for i in range(n):
+        e = 0.5 * (action[i, 0] + 1.0)
+        rebound = -speed[i] - particle.normal_impulse_one(-speed[i], e)
+        at_rest[i] = rebound < rest_speed
+        if at_rest[i]:
+            rebound = 0.0
+        apex = particle.apex_height_one(radius, rebound, gravity)
+        flight = particle.ground_time_one(radius, rebound, radius, gravity)
+        error = abs(apex - targets[i, 0]) / height_scale
+        bounces = step[i] + 1
+        rest_cost = 0.0
+        if at_rest[i]:  # charge every planned bounce skipped, as if at h = radius
+            _fill_targets(keys[i], skipped, c, offsets)
+            for k in range(len(skipped)):
+                skipped[k] = skipped[k] - radius if k >= bounces else 0.0
+            rest_cost = _pairwise_sum(skipped) / height_scale
+        errors = error_sum[i] + error + rest_cost
+        counted = max(bounces, bounces_planned) if at_rest[i] else bounces
+        success[i] = errors / counted <= success_error
+        new_targets[i, :lookahead] = targets[i, 1:]
+        new_targets[i, lookahead] = _target(keys[i], step[i] + lookahead + 1, targets[i, lookahead], c, offsets)
+        out[0, i] = -particle.impact_velocity_one(radius, rebound, radius, gravity)
+        out[1, i] = time[i] + (0.0 if at_rest[i] else flight)
+        out[2, i], out[3, i], out[4, i], out[5, i] = errors, e, apex, targets[i, 0]
+        terms[0, i], terms[1, i] = -error, -rest_cost
+        reward[i] = -error - rest_cost
+    return out, new_targets, terms, reward, at_rest, success
+
+
+@njit(cache=True)
+def _observe_kernel(speed: np.ndarray, targets: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """Observations (n, 3 + lookahead); ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
+    radius, height_scale, drop_speed = c[0], c[3], c[10]
+    n, m = targets.shape
+    obs = np.empty((n, 2 + m), np.float32)
+    for i in range(n):
+        v = speed[i] / drop_speed
+        obs[i, 0], obs[i, 1] = v, v * v
+        for k in range(m):
+            obs[i, 2 + k] = (targets[i, k] - radius) / height_scale
+    return obs
+
+
 class BouncingBallTask(Task[BouncingBallParams]):
     """Batched logic of BouncingBall-v0 (see :class:`BouncingBallEnv`)."""
 
@@ -74,95 +204,52 @@ class BouncingBallTask(Task[BouncingBallParams]):
         n_obs = 2 + params.lookahead + 1
         self.observation_space = spaces.Box(0.0, 1.0, (n_obs,), np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
+        self._constants = np.array([getattr(params, name) for name in STEP_CONSTANTS], dtype=np.float64)
+        self._offsets = np.array(
+            [rng.stream_offset(_FIRST_TARGET_STREAM), rng.stream_offset(_TARGET_RATIO_STREAM)], dtype=np.uint64
+        )
+        self._first_time = float(particle.time_to_ground(params.drop_height, 0.0, params.radius, params.gravity))
 
     @property
     def control_rate(self) -> float:
         return 2.0
 
-    def next_target(self, keys: np.ndarray, previous: np.ndarray, index: np.ndarray) -> np.ndarray:
-        """Target number ``index`` (n,) of each episode, from target ``index - 1`` (``previous``, m).
-
-        Targets follow a random walk, ``t_k = clip(t_{k-1} * U(target_ratio_min, target_ratio_max),
-        target_min, target_max)``, drawn from the episode key alone (never from the actions).
-        """
-        p = self.params
-        ratio = rng.uniform_in(keys, _TARGET_RATIO_STREAM, p.target_ratio_min, p.target_ratio_max, counter=index)
-        return np.clip(previous * ratio[:, 0], p.target_min, p.target_max)
-
     def targets(self, keys: np.ndarray, count: int) -> np.ndarray:
         """The first ``count`` target apex heights (m) of each episode, shape (n, count)."""
-        p = self.params
-        sequence = [rng.uniform_in(keys, _FIRST_TARGET_STREAM, p.target_min, p.target_max)[:, 0]]
-        for index in range(1, count):
-            sequence.append(self.next_target(keys, sequence[-1], np.full(len(keys), index)))
-        return np.stack(sequence, axis=-1)
+        return _targets_kernel(np.ascontiguousarray(keys, dtype=np.uint64), count, self._constants, self._offsets)
 
     def initial_state(self, keys: np.ndarray) -> dict[str, np.ndarray]:
         p = self.params
         n = len(keys)
         return {
             "speed": np.full(n, p.drop_speed),
-            "time": np.full(n, float(particle.time_to_ground(p.drop_height, 0.0, p.radius, p.gravity))),
+            "time": np.full(n, self._first_time),
             "targets": self.targets(keys, p.lookahead + 1),
             "error_sum": np.zeros(n),
         }
 
     def step(self, state: dict[str, np.ndarray], action: np.ndarray) -> Transition:
         p = self.params
-        e = 0.5 * (action[:, 0] + 1.0)
-        speed = state["speed"]
-        incoming = np.stack([np.zeros_like(speed), -speed, np.zeros_like(speed)], axis=-1)
-        rebound = particle.restitute(incoming, np.array([0.0, 1.0, 0.0]), e)[:, 1]
-        at_rest = rebound < p.rest_speed
-        rebound = np.where(at_rest, 0.0, rebound)
-        apex = particle.apex_height(p.radius, rebound, p.gravity)
-        flight = particle.time_to_ground(np.full_like(rebound, p.radius), rebound, p.radius, p.gravity)
-        next_speed = -particle.impact_velocity(p.radius, rebound, p.radius, p.gravity)
-        target = state["targets"][:, 0]
-        error = np.abs(apex - target) / p.height_scale
-        bounces = state["step"] + 1
-        rest_cost = self.rest_cost(state["key"], bounces, at_rest)
-        error_sum = state["error_sum"] + error + rest_cost
-        counted = np.where(at_rest, np.maximum(bounces, p.episode_bounces), bounces)
-        new_target = self.next_target(state["key"], state["targets"][:, -1], state["step"] + p.lookahead + 1)
-        new_state = {
-            "speed": next_speed,
-            "time": state["time"] + np.where(at_rest, 0.0, flight),
-            "targets": np.concatenate([state["targets"][:, 1:], new_target[:, None]], axis=1),
-            "error_sum": error_sum,
-        }
+        out, targets, terms, reward, at_rest, success = _step_kernel(
+            action, state["speed"], state["time"], state["targets"], state["error_sum"], state["key"], state["step"],
+            self._constants, self._offsets,
+        )  # fmt: skip
+        speed, time, error_sum, e, apex, target = out
+        new_state = {"speed": speed, "time": time, "targets": targets, "error_sum": error_sum}
         info = {
-            "impact_speed": speed,
+            "impact_speed": state["speed"],
             "restitution": e,
             "apex_height": apex,
             "target_height": target,
-            "radius": np.full_like(speed, p.radius),
-            "gravity": np.full_like(speed, p.gravity),
-            "reward_terms": {"apex_error": -error, "rest": -rest_cost},
-            "is_success": error_sum / counted <= p.success_error,
+            "radius": np.full(len(speed), p.radius),
+            "gravity": np.full(len(speed), p.gravity),
+            "reward_terms": {"apex_error": terms[0], "rest": terms[1]},
+            "is_success": success,
         }
-        return Transition(new_state, -error - rest_cost, at_rest, info)
-
-    def rest_cost(self, keys: np.ndarray, bounces: np.ndarray, at_rest: np.ndarray) -> np.ndarray:
-        """Normalised apex error of every planned bounce left after ``bounces`` (n,), for balls coming to rest.
-
-        A ball at rest stays at ``h = radius``: charging the errors of the bounces it skips keeps resting from
-        being a way out of the remaining targets (all rewards are negative). Zero where not at rest.
-        """
-        p = self.params
-        cost = np.zeros(len(keys))
-        if at_rest.any():
-            targets = self.targets(keys[at_rest], p.episode_bounces)
-            skipped = np.arange(p.episode_bounces)[None, :] >= bounces[at_rest][:, None]
-            cost[at_rest] = np.sum(np.where(skipped, targets - p.radius, 0.0), axis=1) / p.height_scale
-        return cost
+        return Transition(new_state, reward, at_rest, info)
 
     def observe(self, state: dict[str, np.ndarray]) -> np.ndarray:
-        p = self.params
-        speed = state["speed"] / p.drop_speed
-        reachable = speed * speed
-        targets = (state["targets"] - p.radius) / p.height_scale
-        return np.concatenate([speed[:, None], reachable[:, None], targets], axis=1).astype(np.float32)
+        return _observe_kernel(state["speed"], state["targets"], self._constants)
 
 
 def optimal_apexes(targets: np.ndarray, start_apex: float, radius: float) -> np.ndarray:

@@ -13,11 +13,14 @@ modifies its inputs.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from vegym.params import Params, param
+from vegym.physics.columns import flat_columns
 
 STANDARD_GRAVITY = 9.81
 
@@ -35,6 +38,67 @@ def state_at(h: np.ndarray, v: np.ndarray, t: np.ndarray, gravity: float) -> tup
     return h + v * t - 0.5 * gravity * t * t, v - gravity * t
 
 
+@njit(cache=True, error_model="numpy")
+def ground_time_one(h: float, v: float, radius: float, gravity: float) -> float:
+    """:func:`time_to_ground` of one particle (scalars, SI); the one compiled form that the array functions and
+    BouncingBall-v0's kernel run."""
+    height = h - radius
+    disc = v * v + 2.0 * gravity * height
+    if disc < 0.0:
+        return math.inf
+    s = math.sqrt(disc)
+    if v > 0.0:
+        return (v + s) / gravity
+    if height <= 0.0:
+        return 0.0
+    return 2.0 * height / (s - v)
+
+
+@njit(cache=True, error_model="numpy")
+def impact_velocity_one(h: float, v: float, radius: float, gravity: float) -> float:
+    """:func:`impact_velocity` of one particle (scalars, SI): ``-sqrt(v^2 + 2 g (h - r))``."""
+    return -math.sqrt(v * v + 2.0 * gravity * (h - radius))
+
+
+@njit(cache=True, error_model="numpy")
+def apex_height_one(h: float, v: float, gravity: float) -> float:
+    """:func:`apex_height` of one particle (scalars, SI)."""
+    v_up = 0.0 if v < 0.0 else v
+    return h + v_up * v_up / (2.0 * gravity)
+
+
+@njit(cache=True)
+def normal_impulse_one(v_n: float, restitution: float) -> float:
+    """Change of the normal velocity component ``v . N`` (m/s) at an impact with restitution e, to subtract along
+    ``N``: ``(1 + e) v_n`` when ``v_n < 0``, else 0 (scalars; :func:`restitute` runs it)."""
+    return (1.0 + restitution) * v_n if v_n < 0.0 else 0.0
+
+
+@njit(cache=True)
+def _ground_each(h: np.ndarray, v: np.ndarray, radius: float, gravity: float) -> tuple[np.ndarray, np.ndarray]:
+    t, v_g = np.empty(h.size), np.empty(h.size)
+    for i in range(h.size):
+        t[i] = ground_time_one(h[i], v[i], radius, gravity)
+        v_g[i] = impact_velocity_one(h[i], v[i], radius, gravity)
+    return t, v_g
+
+
+@njit(cache=True)
+def _apex_each(h: np.ndarray, v: np.ndarray, gravity: float) -> np.ndarray:
+    out = np.empty(h.size)
+    for i in range(h.size):
+        out[i] = apex_height_one(h[i], v[i], gravity)
+    return out
+
+
+@njit(cache=True)
+def _impulse_each(v_n: np.ndarray, restitution: np.ndarray) -> np.ndarray:
+    out = np.empty(v_n.size)
+    for i in range(v_n.size):
+        out[i] = normal_impulse_one(v_n[i], restitution[i])
+    return out
+
+
 def time_to_ground(h: np.ndarray, v: np.ndarray, radius: float, gravity: float) -> np.ndarray:
     """Exact time until the centre reaches ``h = radius`` (the corrected 8.8/8.11).
 
@@ -42,16 +106,8 @@ def time_to_ground(h: np.ndarray, v: np.ndarray, radius: float, gravity: float) 
     ``s = sqrt(v^2 + 2 g (h - r))``. Returns ``0`` for a particle on the ground moving down (or at rest) and
     ``+inf`` where there is no contact ahead (only possible below the ground, ``h < r``).
     """
-    h = np.asarray(h, dtype=np.float64)
-    v = np.asarray(v, dtype=np.float64)
-    height = h - radius
-    disc = v * v + 2.0 * gravity * height
-    with np.errstate(invalid="ignore", divide="ignore"):
-        s = np.sqrt(disc)
-        rising = (v + s) / gravity
-        falling = 2.0 * height / (s - v)
-        t = np.where(v > 0, rising, np.where(height <= 0, 0.0, falling))
-    return np.where(disc < 0, np.inf, t)
+    shape, (h, v) = flat_columns(h, v)
+    return _ground_each(h, v, float(radius), float(gravity))[0].reshape(shape)[()]
 
 
 def impact_velocity(h: np.ndarray, v: np.ndarray, radius: float, gravity: float) -> np.ndarray:
@@ -59,13 +115,14 @@ def impact_velocity(h: np.ndarray, v: np.ndarray, radius: float, gravity: float)
 
     Exact by energy conservation; equal to ``v - g * time_to_ground(...)``.
     """
-    return -np.sqrt(np.asarray(v, dtype=np.float64) ** 2 + 2.0 * gravity * (np.asarray(h) - radius))
+    shape, (h, v) = flat_columns(h, v)
+    return _ground_each(h, v, float(radius), float(gravity))[1].reshape(shape)[()]
 
 
 def apex_height(h: np.ndarray, v: np.ndarray, gravity: float) -> np.ndarray:
     """Highest height of the centre in free flight from (h, v); ``h`` itself when moving down."""
-    v_up = np.maximum(np.asarray(v, dtype=np.float64), 0.0)
-    return h + v_up * v_up / (2.0 * gravity)
+    shape, (h, v) = flat_columns(h, v)
+    return _apex_each(h, v, float(gravity)).reshape(shape)[()]
 
 
 def restitute(velocity: np.ndarray, normal: np.ndarray, restitution: np.ndarray) -> np.ndarray:
@@ -78,8 +135,8 @@ def restitute(velocity: np.ndarray, normal: np.ndarray, restitution: np.ndarray)
     velocity = np.asarray(velocity, dtype=np.float64)
     normal = np.broadcast_to(np.asarray(normal, dtype=np.float64), velocity.shape)
     v_n = np.sum(velocity * normal, axis=-1)
-    impulse = np.where(v_n < 0.0, (1.0 + np.asarray(restitution, dtype=np.float64)) * v_n, 0.0)
-    return velocity - impulse[..., None] * normal
+    shape, (v_n, e) = flat_columns(v_n, restitution)
+    return velocity - _impulse_each(v_n, e).reshape(shape)[..., None] * normal
 
 
 def event_step(
