@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 from gymnasium import spaces
+from numba import njit
 
 from vegym import rng
 from vegym.envs.base import Task, Transition, VegymEnv, VegymVectorEnv
@@ -91,6 +93,91 @@ class ProjectileEnvParams(Params):
         return max(self.launch_height_max, 1.0)
 
 
+STEP_CONSTANTS = (
+    "launch_height_min",
+    "launch_height_max",
+    "target_distance_min",
+    "target_distance_max",
+    "wind_speed_max",
+    "speed_min",
+    "speed_max",
+    "hit_radius",
+    "hit_bonus",
+    "gravity",
+    "radius",
+    "height_scale",
+    "wind_scale",
+)
+"""Parameters the kernels read, in the order of their constants array (SI units, radians; see the fields)."""
+
+
+@njit(cache=True)
+def _initial_kernel(keys: np.ndarray, c: np.ndarray, offset: np.uint64) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Launch positions, targets and winds (n, 3) of fresh episodes, from 5 uniform lanes of each key's setup draw:
+    launch height, target distance and bearing, wind speed and direction."""
+    n = len(keys)
+    launch, target, wind = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3))
+    for i in range(n):
+        base = rng.stream_base(keys[i], offset, np.uint64(0))
+        launch[i, 1] = c[0] + (c[1] - c[0]) * rng.lane(base, 0)
+        distance = c[2] + (c[3] - c[2]) * rng.lane(base, 1)
+        bearing = np.pi * (2.0 * rng.lane(base, 2) - 1.0)
+        wind_speed = c[4] * rng.lane(base, 3)
+        wind_direction = np.pi * (2.0 * rng.lane(base, 4) - 1.0)
+        target[i, 0], target[i, 2] = distance * math.cos(bearing), distance * math.sin(bearing)
+        wind[i, 0], wind[i, 2] = wind_speed * math.cos(wind_direction), wind_speed * math.sin(wind_direction)
+    return launch, target, wind
+
+
+@njit(cache=True)
+def _step_kernel(
+    action: np.ndarray, launch: np.ndarray, target: np.ndarray, wind: np.ndarray, bearing: np.ndarray, c: np.ndarray
+) -> tuple[np.ndarray, ...]:
+    """One shot per episode, fused; ``bearing`` is the target's (rad) and ``c`` holds the parameters named in
+    ``STEP_CONSTANTS``."""
+    target_distance_max, speed_min, speed_max, hit_radius, hit_bonus, gravity, radius = (
+        c[3], c[5], c[6], c[7], c[8], c[9], c[10]
+    )  # fmt: skip
+    n = len(action)
+    velocity, landing = np.empty((n, 3)), np.empty((n, 3))
+    out = np.empty((2, n))  # flight time, miss distance
+    terms, reward, hit = np.empty((2, n)), np.empty(n), np.empty(n, np.bool_)
+    for i in range(n):
+        speed = speed_min + 0.5 * (action[i, 2] + 1.0) * (speed_max - speed_min)
+        d = projectile.direction_one(ELEVATION_LIMIT * action[i, 0], bearing[i] + AZIMUTH_LIMIT * action[i, 1])
+        velocity[i, 0], velocity[i, 1], velocity[i, 2] = speed * d[0], speed * d[1], speed * d[2]
+        x, z, out[0, i] = projectile.landing_one(
+            (launch[i, 0], launch[i, 1], launch[i, 2]), (velocity[i, 0], velocity[i, 1], velocity[i, 2]),
+            (wind[i, 0], wind[i, 1], wind[i, 2]), gravity, radius,
+        )  # fmt: skip
+        landing[i, 0], landing[i, 1], landing[i, 2] = x, radius, z
+        miss = math.hypot(x - target[i, 0], z - target[i, 2])
+        out[1, i] = miss
+        hit[i] = miss <= hit_radius
+        terms[0, i] = -miss / target_distance_max
+        terms[1, i] = hit_bonus * (1.0 - (miss / hit_radius) ** 2) if hit[i] else 0.0
+        reward[i] = terms[0, i] + terms[1, i]
+    return velocity, landing, out, terms, reward, hit
+
+
+@njit(cache=True)
+def _observe_kernel(
+    launch: np.ndarray, target: np.ndarray, wind: np.ndarray, bearing: np.ndarray, c: np.ndarray
+) -> np.ndarray:
+    """Observations (n, 4) in the target frame (:meth:`ProjectileTask.target_frame`) of the target's ``bearing``
+    (rad); ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
+    target_distance_max, height_scale, wind_scale = c[3], c[11], c[12]
+    obs = np.empty((len(launch), 4), np.float32)
+    for i in range(len(launch)):
+        dx, dz = target[i, 0] - launch[i, 0], target[i, 2] - launch[i, 2]
+        cos_b, sin_b = math.cos(bearing[i]), math.sin(bearing[i])
+        obs[i, 0] = math.hypot(dx, dz) / target_distance_max
+        obs[i, 1] = launch[i, 1] / height_scale
+        obs[i, 2] = (wind[i, 0] * cos_b + wind[i, 2] * sin_b) / wind_scale  # the wind is horizontal
+        obs[i, 3] = (wind[i, 0] * -sin_b + wind[i, 2] * cos_b) / wind_scale
+    return obs
+
+
 class ProjectileTask(Task[ProjectileEnvParams]):
     """Batched logic of Projectile-v0 (see :class:`ProjectileEnv`)."""
 
@@ -104,30 +191,30 @@ class ProjectileTask(Task[ProjectileEnvParams]):
         )
         self.action_space = spaces.Box(-1.0, 1.0, (3,), np.float32)
         self.physics = params.physics
+        self._constants = np.array([getattr(params, name) for name in STEP_CONSTANTS], dtype=np.float64)
+        self._offset = rng.stream_offset(_SETUP_STREAM)
 
     @property
     def control_rate(self) -> float:
         return 1.0
 
     def initial_state(self, keys: np.ndarray) -> dict[str, np.ndarray]:
-        p = self.params
-        u = rng.uniform(keys, _SETUP_STREAM, 5)
-        n = len(keys)
-        height = p.launch_height_min + (p.launch_height_max - p.launch_height_min) * u[:, 0]
-        distance = p.target_distance_min + (p.target_distance_max - p.target_distance_min) * u[:, 1]
-        bearing = np.pi * (2.0 * u[:, 2] - 1.0)
-        wind_speed = p.wind_speed_max * u[:, 3]
-        wind_direction = np.pi * (2.0 * u[:, 4] - 1.0)
-        launch_position, target, wind = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3))
-        launch_position[:, 1] = height
-        target[:, 0], target[:, 2] = distance * np.cos(bearing), distance * np.sin(bearing)
-        wind[:, 0], wind[:, 2] = wind_speed * np.cos(wind_direction), wind_speed * np.sin(wind_direction)
+        launch_position, target, wind = _initial_kernel(
+            np.ascontiguousarray(keys, dtype=np.uint64), self._constants, self._offset
+        )
         return {
             "launch_position": launch_position,
             "target": target,
             "wind": wind,
-            "landing_point": np.full((n, 3), np.nan),
+            "bearing": self.target_bearing(launch_position, target),
+            "landing_point": np.full((len(keys), 3), np.nan),
         }
+
+    @staticmethod
+    def target_bearing(launch_position: np.ndarray, target: np.ndarray) -> np.ndarray:
+        """Book azimuth (rad, from +x toward +z) of each target (n, 3) seen from its launcher (n, 3), with numpy's
+        ``arctan2`` (libm's ``atan2``, which a kernel would call, differs from it by an ulp at times)."""
+        return np.arctan2(target[:, 2] - launch_position[:, 2], target[:, 0] - launch_position[:, 0])
 
     @staticmethod
     def target_frame(state: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -138,7 +225,7 @@ class ProjectileTask(Task[ProjectileEnvParams]):
         """
         offset = state["target"] - state["launch_position"]
         distance = np.hypot(offset[:, 0], offset[:, 2])
-        bearing = np.arctan2(offset[:, 2], offset[:, 0])
+        bearing = ProjectileTask.target_bearing(state["launch_position"], state["target"])
         cos_b, sin_b = np.cos(bearing), np.sin(bearing)
         frame = np.zeros((2, *bearing.shape, 3))
         frame[0, ..., 0], frame[0, ..., 2] = cos_b, sin_b
@@ -147,16 +234,9 @@ class ProjectileTask(Task[ProjectileEnvParams]):
 
     def step(self, state: dict[str, np.ndarray], action: np.ndarray) -> Transition:
         p = self.params
-        elevation = ELEVATION_LIMIT * action[:, 0]
-        _, bearing, _ = self.target_frame(state)
-        azimuth = bearing + AZIMUTH_LIMIT * action[:, 1]
-        speed = p.speed_min + 0.5 * (action[:, 2] + 1.0) * (p.speed_max - p.speed_min)
-        velocity = projectile.launch_velocity(elevation, azimuth, speed)
-        landing, flight_time = projectile.impact_point(state["launch_position"], velocity, state["wind"], self.physics)
-        miss = np.hypot(landing[:, 0] - state["target"][:, 0], landing[:, 2] - state["target"][:, 2])
-        hit = miss <= p.hit_radius
-        miss_term = -miss / p.target_distance_max
-        hit_term = np.where(hit, p.hit_bonus * (1.0 - (miss / p.hit_radius) ** 2), 0.0)
+        velocity, landing, (flight_time, miss), terms, reward, hit = _step_kernel(
+            action, state["launch_position"], state["target"], state["wind"], state["bearing"], self._constants
+        )
         info = {
             "launch_position": state["launch_position"],
             "launch_velocity": velocity,
@@ -166,22 +246,16 @@ class ProjectileTask(Task[ProjectileEnvParams]):
             "flight_time": flight_time,
             "target": state["target"],
             "miss_distance": miss,
-            "reward_terms": {"miss": miss_term, "hit": hit_term},
+            "reward_terms": {"miss": terms[0], "hit": terms[1]},
             "is_success": hit,
         }
         new_state = {**state, "landing_point": landing}
-        return Transition(new_state, miss_term + hit_term, np.ones(len(miss), dtype=bool), info)
+        return Transition(new_state, reward, np.ones(len(miss), dtype=bool), info)
 
     def observe(self, state: dict[str, np.ndarray]) -> np.ndarray:
-        p = self.params
-        distance, _, (along, across) = self.target_frame(state)
-        wind = state["wind"]
-        obs = np.empty((len(distance), 4), np.float32)
-        obs[:, 0] = distance / p.target_distance_max
-        obs[:, 1] = state["launch_position"][:, 1] / p.height_scale
-        obs[:, 2] = (wind[:, 0] * along[:, 0] + wind[:, 2] * along[:, 2]) / p.wind_scale  # the wind is horizontal
-        obs[:, 3] = (wind[:, 0] * across[:, 0] + wind[:, 2] * across[:, 2]) / p.wind_scale
-        return obs
+        return _observe_kernel(
+            state["launch_position"], state["target"], state["wind"], state["bearing"], self._constants
+        )
 
 
 class ProjectileEnv(VegymEnv[ProjectileEnvParams]):

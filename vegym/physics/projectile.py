@@ -13,12 +13,15 @@ gravity a positive magnitude. The wind is a kinematic drift (the chapter's model
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from vegym.params import Params, param
-from vegym.physics.particle import STANDARD_GRAVITY, time_to_ground
+from vegym.physics.columns import flat_columns
+from vegym.physics.particle import STANDARD_GRAVITY, ground_time_one, time_to_ground
 
 
 @dataclass(frozen=True)
@@ -34,16 +37,26 @@ class ProjectileParams(Params):
         return np.array([0.0, -self.gravity, 0.0])
 
 
+@njit(cache=True)
+def direction_one(elevation: float, azimuth: float) -> tuple[float, float, float]:
+    """Unit launch direction ``(cos(el) cos(az), sin(el), cos(el) sin(az))`` from angles in radians (scalars); the
+    one compiled form that :func:`launch_direction` and Projectile-v0's kernel run."""
+    cos_el = math.cos(elevation)
+    return cos_el * math.cos(azimuth), math.sin(elevation), cos_el * math.sin(azimuth)
+
+
+@njit(cache=True)
+def _direction_each(elevation: np.ndarray, azimuth: np.ndarray) -> np.ndarray:
+    out = np.empty((elevation.size, 3))
+    for i in range(elevation.size):
+        out[i, 0], out[i, 1], out[i, 2] = direction_one(elevation[i], azimuth[i])
+    return out
+
+
 def launch_direction(elevation: np.ndarray, azimuth: np.ndarray) -> np.ndarray:
     """Unit launch direction (n, 3) from elevation and azimuth in radians (8.63-8.65)."""
-    elevation = np.asarray(elevation, dtype=np.float64)
-    azimuth = np.asarray(azimuth, dtype=np.float64)
-    cos_el = np.cos(elevation)
-    direction = np.empty((*np.broadcast_shapes(elevation.shape, azimuth.shape), 3))
-    direction[..., 0] = cos_el * np.cos(azimuth)
-    direction[..., 1] = np.sin(elevation)
-    direction[..., 2] = cos_el * np.sin(azimuth)
-    return direction
+    shape, columns = flat_columns(elevation, azimuth)
+    return _direction_each(*columns).reshape(*shape, 3)
 
 
 def launch_velocity(elevation: np.ndarray, azimuth: np.ndarray, speed: np.ndarray) -> np.ndarray:
@@ -70,14 +83,46 @@ def impact_time(p0: np.ndarray, v0: np.ndarray, wind: np.ndarray, params: Projec
     return time_to_ground(np.asarray(p0)[..., 1], u[..., 1], params.radius, params.gravity)
 
 
+@njit(cache=True, error_model="numpy")
+def landing_one(
+    p0: tuple[float, float, float],
+    v0: tuple[float, float, float],
+    wind: tuple[float, float, float],
+    gravity: float,
+    radius: float,
+) -> tuple[float, float, float]:
+    """Landing ``x``, ``z`` (m) and flight time (s) of one shot from ``p0`` at air-relative ``v0`` in the drift
+    ``wind`` (3-tuples, m and m/s): :func:`position_at` at the exact ground time (scalars, the one compiled form
+    that :func:`impact_point` and Projectile-v0's kernel run)."""
+    t = ground_time_one(p0[1], v0[1] + wind[1], radius, gravity)
+    half_g = 0.5 * 0.0  # g_vec / 2 across the ground: (0, -g, 0) has no horizontal part
+    x = p0[0] + (v0[0] + wind[0]) * t + half_g * t * t
+    z = p0[2] + (v0[2] + wind[2]) * t + half_g * t * t
+    return x, z, t
+
+
+@njit(cache=True)
+def _landing_each(p0: np.ndarray, v0: np.ndarray, wind: np.ndarray, gravity: float, radius: float) -> np.ndarray:
+    out = np.empty((len(p0), 3))  # x, z, t
+    for i in range(len(p0)):
+        out[i, 0], out[i, 1], out[i, 2] = landing_one(
+            (p0[i, 0], p0[i, 1], p0[i, 2]), (v0[i, 0], v0[i, 1], v0[i, 2]), (wind[i, 0], wind[i, 1], wind[i, 2]),
+            gravity, radius,
+        )  # fmt: skip
+    return out
+
+
 def impact_point(
     p0: np.ndarray, v0: np.ndarray, wind: np.ndarray, params: ProjectileParams
 ) -> tuple[np.ndarray, np.ndarray]:
     """Landing point (n, 3), with ``y = radius``, and flight time (n,)."""
-    t = impact_time(p0, v0, wind, params)
-    point = position_at(p0, v0, wind, t, params)
-    point[..., 1] = params.radius
-    return point, t
+    arrays = [np.asarray(a, dtype=np.float64) for a in (p0, v0, wind)]
+    shape = np.broadcast_shapes(*(a.shape for a in arrays))
+    p0, v0, wind = (np.ascontiguousarray(np.broadcast_to(a, shape)).reshape(-1, 3) for a in arrays)
+    out = _landing_each(p0, v0, wind, float(params.gravity), float(params.radius))
+    point = np.empty((len(out), 3))
+    point[:, 0], point[:, 1], point[:, 2] = out[:, 0], params.radius, out[:, 1]
+    return point.reshape(shape), out[:, 2].reshape(shape[:-1])
 
 
 def firing_solution(
