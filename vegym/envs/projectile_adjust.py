@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 from gymnasium import spaces
+from numba import njit
 
 from vegym.envs.base import State, Task, Transition, VegymEnv, VegymVectorEnv
 from vegym.envs.projectile import AZIMUTH_LIMIT, ELEVATION_LIMIT, ProjectileEnvParams, ProjectileTask
@@ -52,6 +54,59 @@ class ProjectileAdjustParams(ProjectileEnvParams):
         return self.wind_speed_max * self.longest_flight
 
 
+@njit(cache=True)
+def _remember_kernel(
+    landing: np.ndarray,
+    target: np.ndarray,
+    bearing: np.ndarray,
+    misses: np.ndarray,
+    actions: np.ndarray,
+    action: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The shot just fired pushed onto each episode's memory (most recent first): its miss (landing minus target,
+    m) along and across the line of fire of ``bearing`` (rad), and its action. Returns the miss (n, 2) and the new
+    ``misses`` and ``actions``."""
+    n = len(landing)
+    miss, new_misses, new_actions = np.empty((n, 2)), np.empty_like(misses), np.empty_like(actions)
+    for i in range(n):
+        cos_b, sin_b = math.cos(bearing[i]), math.sin(bearing[i])
+        dx, dy, dz = landing[i, 0] - target[i, 0], landing[i, 1] - target[i, 1], landing[i, 2] - target[i, 2]
+        miss[i, 0] = dx * cos_b + dy * 0.0 + dz * sin_b  # the frame's unit vectors are horizontal
+        miss[i, 1] = dx * -sin_b + dy * 0.0 + dz * cos_b
+        new_misses[i, 0] = miss[i]
+        new_misses[i, 1:] = misses[i, :-1]
+        new_actions[i, 0] = action[i]
+        new_actions[i, 1:] = actions[i, :-1]
+    return miss, new_misses, new_actions
+
+
+@njit(cache=True)
+def _observe_kernel(
+    launch: np.ndarray,
+    target: np.ndarray,
+    misses: np.ndarray,
+    actions: np.ndarray,
+    shots: np.ndarray,
+    c: np.ndarray,
+) -> np.ndarray:
+    """Observations (n, 3 + memory * SHOT_FIELDS); ``c = (target_distance_max, height_scale, max_shots,
+    miss_scale)``."""
+    target_distance_max, height_scale, max_shots, miss_scale = c[0], c[1], c[2], c[3]
+    n, memory = misses.shape[0], misses.shape[1]
+    obs = np.empty((n, 3 + memory * SHOT_FIELDS), np.float32)
+    for i in range(n):
+        obs[i, 0] = math.hypot(target[i, 0] - launch[i, 0], target[i, 2] - launch[i, 2]) / target_distance_max
+        obs[i, 1] = launch[i, 1] / height_scale
+        obs[i, 2] = shots[i] / max_shots
+        for k in range(memory):
+            j = 3 + k * SHOT_FIELDS
+            obs[i, j] = 1.0 if k < shots[i] else 0.0
+            obs[i, j + 1] = min(max(misses[i, k, 0] / miss_scale, -1.0), 1.0)
+            obs[i, j + 2] = min(max(misses[i, k, 1] / miss_scale, -1.0), 1.0)
+            obs[i, j + 3], obs[i, j + 4], obs[i, j + 5] = actions[i, k, 0], actions[i, k, 1], actions[i, k, 2]
+    return obs
+
+
 class ProjectileAdjustTask(Task[ProjectileAdjustParams]):
     """Batched logic of ProjectileAdjust-v0 (see :class:`ProjectileAdjustEnv`); each shot is a Projectile-v0 step."""
 
@@ -65,6 +120,9 @@ class ProjectileAdjustTask(Task[ProjectileAdjustParams]):
         low = np.array([0.0, 0.0, 0.0, *slot_low * params.memory], np.float32)
         self.observation_space = spaces.Box(low, np.ones_like(low), dtype=np.float32)
         self.action_space = self.shot.action_space
+        self._constants = np.array(
+            [params.target_distance_max, params.height_scale, params.max_shots, params.miss_scale], dtype=np.float64
+        )
 
     @property
     def control_rate(self) -> float:
@@ -82,36 +140,20 @@ class ProjectileAdjustTask(Task[ProjectileAdjustParams]):
     def step(self, state: State, action: np.ndarray) -> Transition:
         transition = self.shot.step(state, action)
         info = transition.info
-        _, _, (along, across) = ProjectileTask.target_frame(state)
-        miss = info["landing_point"] - state["target"]
-        miss_frame = np.stack([np.einsum("ij,ij->i", miss, along), np.einsum("ij,ij->i", miss, across)], axis=-1)
+        miss, misses, actions = _remember_kernel(
+            info["landing_point"], state["target"], state["bearing"], state["misses"], state["actions"], action
+        )
         shots = state["shots"] + 1
-        new_state = {
-            **transition.state,
-            "misses": np.concatenate([miss_frame[:, None], state["misses"][:, :-1]], axis=1),
-            "actions": np.concatenate([action[:, None], state["actions"][:, :-1]], axis=1),
-            "shots": shots,
-        }
+        new_state = {**transition.state, "misses": misses, "actions": actions, "shots": shots}
         terminated = info["is_success"] | (shots >= self.params.max_shots)
-        info = {**info, "miss_along": miss_frame[:, 0], "miss_across": miss_frame[:, 1], "shots": shots}
+        info = {**info, "miss_along": miss[:, 0], "miss_across": miss[:, 1], "shots": shots}
         return Transition(new_state, transition.reward, terminated, info)
 
     def observe(self, state: State) -> np.ndarray:
-        p = self.params
-        n, memory = len(state["shots"]), p.memory
-        distance, _, _ = ProjectileTask.target_frame(state)
-        fired = (np.arange(memory) < state["shots"][:, None]).astype(np.float64)
-        slots = np.concatenate(
-            [fired[..., None], np.clip(state["misses"] / p.miss_scale, -1.0, 1.0), state["actions"]], axis=-1
-        )
-        head = [
-            distance / p.target_distance_max,
-            state["launch_position"][:, 1] / p.height_scale,
-            state["shots"] / p.max_shots,
-        ]
-        return np.concatenate([np.stack(head, axis=-1), slots.reshape(n, memory * SHOT_FIELDS)], axis=-1).astype(
-            np.float32
-        )
+        return _observe_kernel(
+            state["launch_position"], state["target"], state["misses"], state["actions"], state["shots"],
+            self._constants,
+        )  # fmt: skip
 
 
 def wind_from_shot(
