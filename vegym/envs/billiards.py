@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 from gymnasium import spaces
+from numba import njit
 
 from vegym import rng
 from vegym.envs.base import State, Task, Transition, VegymEnv, VegymVectorEnv
@@ -100,6 +102,128 @@ def ghost_ball_shot(
     return sin_cut, speed
 
 
+STEP_CONSTANTS = (
+    "contact_distance",
+    "speed_max",
+    "deceleration",
+    "mass_a",
+    "mass_b",
+    "restitution",
+    "target_radius",
+    "target_distance_min",
+    "target_distance_max",
+    "hit_bonus",
+    "ball_distance_min",
+    "ball_distance_max",
+    "bearing_max",
+)
+"""Parameters the kernels read, in the order of their constants array (SI units, radians; see the fields)."""
+
+
+@njit(cache=True)
+def _initial_kernel(keys: np.ndarray, c: np.ndarray, offset: np.uint64) -> tuple[np.ndarray, np.ndarray]:
+    """B's start and the target (n, 2) of fresh episodes, from 4 uniform lanes of each key's setup draw: distance
+    A-B, bearing of B, distance of the target from B and its bearing off the line A-B."""
+    target_distance_min, target_distance_max, ball_distance_min, ball_distance_max, bearing_max = (
+        c[7], c[8], c[10], c[11], c[12]
+    )  # fmt: skip
+    n = len(keys)
+    ball_b, target = np.empty((n, 2)), np.empty((n, 2))
+    for i in range(n):
+        base = rng.stream_base(keys[i], offset, np.uint64(0))
+        distance = ball_distance_min + (ball_distance_max - ball_distance_min) * rng.lane(base, 0)
+        line = np.pi * (2.0 * rng.lane(base, 1) - 1.0)
+        target_distance = target_distance_min + (target_distance_max - target_distance_min) * rng.lane(base, 2)
+        leave = line + bearing_max * (2.0 * rng.lane(base, 3) - 1.0)
+        ball_b[i, 0], ball_b[i, 1] = distance * math.cos(line), distance * math.sin(line)
+        target[i, 0] = ball_b[i, 0] + target_distance * math.cos(leave)
+        target[i, 1] = ball_b[i, 1] + target_distance * math.sin(leave)
+    return ball_b, target
+
+
+@njit(cache=True)
+def _cut_kernel(ball_a: np.ndarray, ball_b: np.ndarray, action: np.ndarray, contact_distance: float) -> np.ndarray:
+    """Sine of the angle (n,) between A's strike and the line A-B: the cut offset over the distance A-B."""
+    out = np.empty(len(action))
+    for i in range(len(action)):
+        dx, dz = ball_b[i, 0] - ball_a[i, 0], ball_b[i, 1] - ball_a[i, 1]
+        out[i] = action[i, 0] * contact_distance / math.sqrt(dx * dx + dz * dz)
+    return out
+
+
+@njit(cache=True, error_model="numpy")
+def _step_kernel(
+    action: np.ndarray, ball_a: np.ndarray, ball_b: np.ndarray, target: np.ndarray, turn: np.ndarray, c: np.ndarray
+) -> tuple[np.ndarray, ...]:
+    """One strike per episode, fused (the scalar kernels of :mod:`vegym.physics.collision`); ``turn``
+    (rad) is the strike's angle from the line A-B and ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
+    contact_distance, speed_max, deceleration, mass_a, mass_b, restitution = c[0], c[1], c[2], c[3], c[4], c[5]
+    target_radius, target_distance_max, hit_bonus = c[6], c[8], c[9]
+    n = len(action)
+    vectors = np.empty((6, n, 2))  # strike velocity, contact point, velocity A, velocity B, rest A, rest B
+    out = np.empty((4, n))  # closing speed, energy lost, duration, miss distance
+    terms, reward = np.empty((2, n)), np.empty(n)
+    contact, hit = np.empty(n, np.bool_), np.empty(n, np.bool_)
+    aim, strike, at_rest = np.empty(2), np.empty(2), np.zeros(2)  # A's direction and velocity, B's velocity
+    for i in range(n):
+        ax, az, bx, bz = ball_a[i, 0], ball_a[i, 1], ball_b[i, 0], ball_b[i, 1]
+        ox, oz = bx - ax, bz - az
+        distance = math.sqrt(ox * ox + oz * oz)
+        along_x, along_z = ox / distance, oz / distance
+        cos_t, sin_t = math.cos(turn[i]), math.sin(turn[i])
+        aim_x, aim_z = cos_t * along_x + sin_t * -along_z, cos_t * along_z + sin_t * along_x
+        speed = 0.5 * (action[i, 1] + 1.0) * speed_max
+        stop = speed * speed / (2.0 * deceleration)
+        aim[0], aim[1] = aim_x, aim_z
+        travel = collision.first_contact_one(ball_a[i], aim, ball_b[i], contact_distance)
+        contact[i] = travel <= stop
+        impact_speed = 0.0
+        if contact[i]:
+            impact_speed = collision.speed_after_one(speed, travel, deceleration)
+        else:
+            travel = stop
+        point, after_a, after_b = vectors[1, i], vectors[2, i], vectors[3, i]
+        point[0], point[1] = ax + travel * aim_x, az + travel * aim_z
+        closing = impact_speed * (
+            aim_x * ((bx - point[0]) / contact_distance) + aim_z * ((bz - point[1]) / contact_distance)
+        )
+        strike[0], strike[1] = impact_speed * aim_x, impact_speed * aim_z
+        collision.impact_one(point, ball_b[i], strike, at_rest, mass_a, mass_b, restitution, after_a, after_b)
+        _, time_a = collision.slide_one(point, after_a, deceleration, vectors[4, i])
+        _, time_b = collision.slide_one(ball_b[i], after_b, deceleration, vectors[5, i])
+        rest_b_x, rest_b_z = vectors[5, i, 0], vectors[5, i, 1]
+        mx, mz = rest_b_x - target[i, 0], rest_b_z - target[i, 1]
+        miss = math.sqrt(mx * mx + mz * mz)
+        hit[i] = miss <= target_radius
+        vectors[0, i, 0], vectors[0, i, 1] = speed * aim_x, speed * aim_z
+        out[0, i] = closing
+        out[1, i] = collision.energy_loss_one(closing, mass_a, mass_b, restitution)
+        out[2, i] = (speed - impact_speed) / deceleration + max(time_a, time_b)
+        out[3, i] = miss
+        terms[0, i] = -miss / target_distance_max
+        terms[1, i] = hit_bonus if hit[i] else 0.0
+        reward[i] = terms[0, i] + terms[1, i]
+    return vectors, out, terms, reward, contact, hit
+
+
+@njit(cache=True)
+def _observe_kernel(ball_a: np.ndarray, ball_b: np.ndarray, target: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """Observations (n, 4) in the frame of the line A-B; ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
+    target_distance_max, ball_distance_max = c[8], c[11]
+    obs = np.empty((len(ball_a), 4), np.float32)
+    for i in range(len(ball_a)):
+        ox, oz = ball_b[i, 0] - ball_a[i, 0], ball_b[i, 1] - ball_a[i, 1]
+        distance = math.sqrt(ox * ox + oz * oz)
+        along_x, along_z = ox / distance, oz / distance
+        tx, tz = target[i, 0] - ball_b[i, 0], target[i, 1] - ball_b[i, 1]
+        target_distance = math.sqrt(tx * tx + tz * tz)
+        obs[i, 0] = distance / ball_distance_max
+        obs[i, 1] = target_distance / target_distance_max
+        obs[i, 2] = (tx * -along_z + tz * along_x) / target_distance
+        obs[i, 3] = (tx * along_x + tz * along_z) / target_distance
+    return obs
+
+
 class BilliardsTask(Task[BilliardsParams]):
     """Batched logic of Billiards-v0 (see :class:`BilliardsEnv`)."""
 
@@ -112,24 +236,16 @@ class BilliardsTask(Task[BilliardsParams]):
             np.array([0, 0, -1, 0], np.float32), np.array([1, 1, 1, 1], np.float32), dtype=np.float32
         )
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
+        self._constants = np.array([getattr(params, name) for name in STEP_CONSTANTS], dtype=np.float64)
+        self._offset = rng.stream_offset(_SETUP_STREAM)
 
     @property
     def control_rate(self) -> float:
         return 1.0
 
     def initial_state(self, keys: np.ndarray) -> State:
-        p = self.params
-        u = rng.uniform(keys, _SETUP_STREAM, 4)
-        distance = p.ball_distance_min + (p.ball_distance_max - p.ball_distance_min) * u[:, 0]
-        line = np.pi * (2.0 * u[:, 1] - 1.0)
-        target_distance = p.target_distance_min + (p.target_distance_max - p.target_distance_min) * u[:, 2]
-        leave = line + p.bearing_max * (2.0 * u[:, 3] - 1.0)
-        ball_b = distance[:, None] * np.stack([np.cos(line), np.sin(line)], axis=-1)
-        return {
-            "ball_a": np.zeros((len(keys), 2)),
-            "ball_b": ball_b,
-            "target": ball_b + target_distance[:, None] * np.stack([np.cos(leave), np.sin(leave)], axis=-1),
-        }
+        ball_b, target = _initial_kernel(np.ascontiguousarray(keys, dtype=np.uint64), self._constants, self._offset)
+        return {"ball_a": np.zeros((len(keys), 2)), "ball_b": ball_b, "target": target}
 
     @staticmethod
     def line_frame(state: State) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -145,63 +261,34 @@ class BilliardsTask(Task[BilliardsParams]):
     def step(self, state: State, action: np.ndarray) -> Transition:
         p = self.params
         a_start, b_start, target = state["ball_a"], state["ball_b"], state["target"]
-        distance, along, across = self.line_frame(state)
-        offset = action[:, 0] * p.contact_distance
-        turn = -np.arcsin(offset / distance)
-        aim = np.cos(turn)[:, None] * along + np.sin(turn)[:, None] * across
-        speed = 0.5 * (action[:, 1] + 1.0) * p.speed_max
-        stop = speed * speed / (2.0 * p.deceleration)
-        travel = collision.first_contact(a_start, aim, b_start, p.contact_distance)
-        contact = travel <= stop
-        travel = np.where(contact, travel, stop)
-        impact_speed = np.where(contact, collision.speed_after(speed, travel, p.deceleration), 0.0)
-        contact_point = a_start + travel[:, None] * aim
-        normal = (b_start - contact_point) / p.contact_distance
-        closing = impact_speed * np.einsum("ij,ij->i", aim, normal)
-        after_a, after_b = collision.oblique_impact(
-            contact_point, b_start, impact_speed[:, None] * aim, np.zeros_like(aim), p.mass_a, p.mass_b, p.restitution
+        turn = -np.arcsin(_cut_kernel(a_start, b_start, action, p.contact_distance))  # numpy's arcsin, not libm's
+        vectors, out, terms, reward, contact, hit = _step_kernel(
+            action, a_start, b_start, target, turn, self._constants
         )
-        rest_a, _, time_a = collision.slide(contact_point, after_a, p.deceleration)
-        rest_b, _, time_b = collision.slide(b_start, after_b, p.deceleration)
-        to_contact = (speed - impact_speed) / p.deceleration
-        miss = np.linalg.norm(rest_b - target, axis=-1)
-        hit = miss <= p.target_radius
-        miss_term = -miss / p.target_distance_max
-        hit_term = np.where(hit, p.hit_bonus, 0.0)
+        strike_velocity, contact_point, after_a, after_b, rest_a, rest_b = vectors
+        closing, energy_lost, duration, miss = out
         info = {
             "ball_a": a_start,
             "ball_b": b_start,
             "target": target,
-            "strike_velocity": speed[:, None] * aim,
+            "strike_velocity": strike_velocity,
             "contact": contact,
             "contact_point": contact_point,
             "closing_speed": closing,
             "velocity_a": after_a,
             "velocity_b": after_b,
-            "energy_lost": collision.energy_loss(closing, p.mass_a, p.mass_b, p.restitution),
+            "energy_lost": energy_lost,
             "rest_a": rest_a,
             "rest_b": rest_b,
-            "duration": to_contact + np.maximum(time_a, time_b),
+            "duration": duration,
             "miss_distance": miss,
-            "reward_terms": {"miss": miss_term, "hit": hit_term},
+            "reward_terms": {"miss": terms[0], "hit": terms[1]},
             "is_success": hit,
         }
-        return Transition(dict(state), miss_term + hit_term, np.ones(len(miss), dtype=bool), info)
+        return Transition(dict(state), reward, np.ones(len(miss), dtype=bool), info)
 
     def observe(self, state: State) -> np.ndarray:
-        p = self.params
-        distance, along, across = self.line_frame(state)
-        to_target = state["target"] - state["ball_b"]
-        target_distance = np.linalg.norm(to_target, axis=-1)
-        return np.stack(
-            [
-                distance / p.ball_distance_max,
-                target_distance / p.target_distance_max,
-                np.einsum("ij,ij->i", to_target, across) / target_distance,
-                np.einsum("ij,ij->i", to_target, along) / target_distance,
-            ],
-            axis=-1,
-        ).astype(np.float32)
+        return _observe_kernel(state["ball_a"], state["ball_b"], state["target"], self._constants)
 
 
 class BilliardsEnv(VegymEnv[BilliardsParams]):

@@ -17,11 +17,138 @@ masses and restitution as scalars or (n,) arrays; inputs are never modified.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+from numba import njit
+
+from vegym.physics.columns import flat_columns
 
 
 def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     return np.sum(a * b, axis=-1)
+
+
+def _rows(vectors: list[np.ndarray], scalars: list[np.ndarray | float]) -> tuple[tuple[int, ...], list, list]:
+    """Vectors broadcast to one shape (..., d) as contiguous (N, d) float64 arrays, and scalars broadcast to its
+    batch shape as (N,) columns (for the loops over the scalar kernels)."""
+    arrays = [np.asarray(v, dtype=np.float64) for v in vectors]
+    shape = np.broadcast_shapes(*(a.shape for a in arrays), *(np.shape(x) + (1,) for x in scalars))
+    rows = [np.ascontiguousarray(np.broadcast_to(a, shape)).reshape(-1, shape[-1]) for a in arrays]
+    _, columns = flat_columns(*(np.broadcast_to(np.asarray(x, dtype=np.float64), shape[:-1]) for x in scalars))
+    return shape, rows, columns
+
+
+@njit(cache=True)
+def dot_one(a: np.ndarray, b: np.ndarray) -> float:
+    """``a . b`` of two (d,) vectors, summed in ``np.sum``'s order."""
+    total = 0.0
+    for k in range(len(a)):
+        total += a[k] * b[k]
+    return total
+
+
+@njit(cache=True, error_model="numpy")
+def impact_one(
+    c_a: np.ndarray,
+    c_b: np.ndarray,
+    v_a: np.ndarray,
+    v_b: np.ndarray,
+    mass_a: float,
+    mass_b: float,
+    restitution: float,
+    u_a: np.ndarray,
+    u_b: np.ndarray,
+) -> None:
+    """:func:`oblique_impact` of one pair of spheres ((d,) vectors, SI), written into ``u_a`` and ``u_b``; the one
+    compiled form that the array function and Billiards-v0's kernel run."""
+    d = len(c_a)
+    gap = 0.0
+    for k in range(d):
+        gap += (c_b[k] - c_a[k]) * (c_b[k] - c_a[k])
+    gap = math.sqrt(gap)
+    w = 0.0
+    for k in range(d):
+        w += (v_a[k] - v_b[k]) * ((c_b[k] - c_a[k]) / gap)
+    impulse = (1.0 + restitution) * (mass_a * mass_b / (mass_a + mass_b)) * w if w > 0.0 else 0.0
+    for k in range(d):
+        n = (c_b[k] - c_a[k]) / gap
+        u_a[k], u_b[k] = v_a[k] - impulse / mass_a * n, v_b[k] + impulse / mass_b * n
+
+
+@njit(cache=True, error_model="numpy")
+def first_contact_one(c_a: np.ndarray, direction: np.ndarray, c_b: np.ndarray, contact_distance: float) -> float:
+    """:func:`first_contact` of one sphere ((d,) vectors, m); ``+inf`` if it never touches."""
+    b, square = 0.0, 0.0
+    for k in range(len(c_a)):
+        b += direction[k] * (c_b[k] - c_a[k])
+        square += (c_b[k] - c_a[k]) * (c_b[k] - c_a[k])
+    disc = b * b - (square - contact_distance * contact_distance)
+    return max(b - math.sqrt(disc), 0.0) if disc >= 0.0 and b > 0.0 else math.inf
+
+
+@njit(cache=True, error_model="numpy")
+def slide_one(position: np.ndarray, velocity: np.ndarray, deceleration: float, rest: np.ndarray) -> tuple[float, float]:
+    """:func:`slide` of one ball ((d,) vectors, SI): rest point written into ``rest``; distance and time returned."""
+    speed = math.sqrt(dot_one(velocity, velocity))
+    for k in range(len(position)):
+        rest[k] = position[k] + velocity[k] * (speed / (2.0 * deceleration))
+    return speed**2 / (2.0 * deceleration), speed / deceleration
+
+
+@njit(cache=True)
+def speed_after_one(speed: float, distance: float, deceleration: float) -> float:
+    """:func:`speed_after` of one ball (m/s, m, m/s^2)."""
+    return math.sqrt(max(speed * speed - 2.0 * deceleration * distance, 0.0))
+
+
+@njit(cache=True)
+def energy_loss_one(closing_speed: float, mass_a: float, mass_b: float, restitution: float) -> float:
+    """:func:`energy_loss` of one impact (J)."""
+    mu = mass_a * mass_b / (mass_a + mass_b)
+    return 0.5 * mu * (1.0 - restitution * restitution) * closing_speed * closing_speed
+
+
+@njit(cache=True)
+def _impact_each(
+    c_a: np.ndarray, c_b: np.ndarray, v_a: np.ndarray, v_b: np.ndarray, m_a: np.ndarray, m_b: np.ndarray, e: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    u_a, u_b = np.empty_like(v_a), np.empty_like(v_b)
+    for i in range(len(c_a)):
+        impact_one(c_a[i], c_b[i], v_a[i], v_b[i], m_a[i], m_b[i], e[i], u_a[i], u_b[i])
+    return u_a, u_b
+
+
+@njit(cache=True)
+def _contact_each(c_a: np.ndarray, direction: np.ndarray, c_b: np.ndarray, contact_distance: float) -> np.ndarray:
+    out = np.empty(len(c_a))
+    for i in range(len(c_a)):
+        out[i] = first_contact_one(c_a[i], direction[i], c_b[i], contact_distance)
+    return out
+
+
+@njit(cache=True)
+def _slide_each(position: np.ndarray, velocity: np.ndarray, deceleration: float) -> tuple[np.ndarray, ...]:
+    rest, distance, time = np.empty_like(position), np.empty(len(position)), np.empty(len(position))
+    for i in range(len(position)):
+        distance[i], time[i] = slide_one(position[i], velocity[i], deceleration, rest[i])
+    return rest, distance, time
+
+
+@njit(cache=True)
+def _speed_after_each(speed: np.ndarray, distance: np.ndarray, deceleration: np.ndarray) -> np.ndarray:
+    out = np.empty(len(speed))
+    for i in range(len(speed)):
+        out[i] = speed_after_one(speed[i], distance[i], deceleration[i])
+    return out
+
+
+@njit(cache=True)
+def _energy_loss_each(w: np.ndarray, m_a: np.ndarray, m_b: np.ndarray, e: np.ndarray) -> np.ndarray:
+    out = np.empty(len(w))
+    for i in range(len(w)):
+        out[i] = energy_loss_one(w[i], m_a[i], m_b[i], e[i])
+    return out
 
 
 def reduced_mass(mass_a: np.ndarray, mass_b: np.ndarray) -> np.ndarray:
@@ -60,23 +187,17 @@ def oblique_impact(
     The impulse form of PHYSICS.md section 5 along the line of centres ``n``; spheres that are not closing
     (``w = (v_a - v_b) . n <= 0``) keep their velocities.
     """
-    c_a, c_b = np.asarray(c_a, dtype=np.float64), np.asarray(c_b, dtype=np.float64)
-    v_a, v_b = np.asarray(v_a, dtype=np.float64), np.asarray(v_b, dtype=np.float64)
-    offset = c_b - c_a
-    n = offset / np.linalg.norm(offset, axis=-1, keepdims=True)
-    w = _dot(v_a - v_b, n)
-    m_a, m_b = np.asarray(mass_a, dtype=np.float64), np.asarray(mass_b, dtype=np.float64)
-    impulse = np.where(w > 0.0, (1.0 + np.asarray(restitution, dtype=np.float64)) * reduced_mass(m_a, m_b) * w, 0.0)
-    return v_a - (impulse / m_a)[..., None] * n, v_b + (impulse / m_b)[..., None] * n
+    shape, rows, columns = _rows([c_a, c_b, v_a, v_b], [mass_a, mass_b, restitution])
+    u_a, u_b = _impact_each(*rows, *columns)
+    return u_a.reshape(shape), u_b.reshape(shape)
 
 
 def energy_loss(
     closing_speed: np.ndarray, mass_a: np.ndarray, mass_b: np.ndarray, restitution: np.ndarray
 ) -> np.ndarray:
     """Kinetic energy (J) lost in an impact at closing speed ``w`` (m/s): ``1/2 mu (1 - e^2) w^2``."""
-    w = np.asarray(closing_speed, dtype=np.float64)
-    e = np.asarray(restitution, dtype=np.float64)
-    return 0.5 * reduced_mass(mass_a, mass_b) * (1.0 - e * e) * w * w
+    shape, columns = flat_columns(closing_speed, mass_a, mass_b, restitution)
+    return _energy_loss_each(*columns).reshape(shape)[()]
 
 
 def deflection_angle(alpha: np.ndarray, mass_a: np.ndarray, mass_b: np.ndarray, restitution: np.ndarray) -> np.ndarray:
@@ -106,12 +227,8 @@ def first_contact(c_a: np.ndarray, direction: np.ndarray, c_b: np.ndarray, conta
     The smallest ``s >= 0`` with ``|c_a + s d - c_b| = R``: ``s = b - sqrt(b^2 - (|c_b - c_a|^2 - R^2))`` with
     ``b = d . (c_b - c_a)``. Spheres already overlapping (``|c_b - c_a| < R``) are outside the model.
     """
-    offset = np.asarray(c_b, dtype=np.float64) - np.asarray(c_a, dtype=np.float64)
-    b = _dot(np.asarray(direction, dtype=np.float64), offset)
-    disc = b * b - (_dot(offset, offset) - contact_distance * contact_distance)
-    with np.errstate(invalid="ignore"):
-        s = b - np.sqrt(disc)
-    return np.where((disc >= 0.0) & (b > 0.0), np.maximum(s, 0.0), np.inf)
+    shape, (c_a, direction, c_b), _ = _rows([c_a, direction, c_b], [])
+    return _contact_each(c_a, direction, c_b, float(contact_distance)).reshape(shape[:-1])
 
 
 def slide(position: np.ndarray, velocity: np.ndarray, deceleration: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -119,19 +236,15 @@ def slide(position: np.ndarray, velocity: np.ndarray, deceleration: float) -> tu
 
     Constant deceleration ``a`` (m/s^2) along the motion: distance ``|v|^2 / (2 a)``, time ``|v| / a``.
     """
-    velocity = np.asarray(velocity, dtype=np.float64)
-    speed = np.linalg.norm(velocity, axis=-1)
-    return (
-        np.asarray(position) + velocity * (speed / (2.0 * deceleration))[..., None],
-        speed**2 / (2.0 * deceleration),
-        speed / deceleration,
-    )
+    shape, (position, velocity), _ = _rows([position, velocity], [])
+    rest, distance, time = _slide_each(position, velocity, float(deceleration))
+    return rest.reshape(shape), distance.reshape(shape[:-1]), time.reshape(shape[:-1])
 
 
 def speed_after(speed: np.ndarray, distance: np.ndarray, deceleration: float) -> np.ndarray:
     """Speed (m/s) of a ball launched at ``speed`` after sliding ``distance`` (m): ``sqrt(v^2 - 2 a s)``, >= 0."""
-    speed = np.asarray(speed, dtype=np.float64)
-    return np.sqrt(np.maximum(speed * speed - 2.0 * deceleration * np.asarray(distance, dtype=np.float64), 0.0))
+    shape, columns = flat_columns(speed, distance, deceleration)
+    return _speed_after_each(*columns).reshape(shape)[()]
 
 
 def launch_speed(speed: np.ndarray, distance: np.ndarray, deceleration: float) -> np.ndarray:
