@@ -124,14 +124,17 @@ def _load_train_config(args: argparse.Namespace, env_id: str, seed: int | None) 
 
 def _train_seeds(args: argparse.Namespace, env_id: str, out: Path) -> int:
     """``vegym train --seeds``: one run per seed in ``out/seed_<k>``, ``--jobs`` processes at a time."""
-    from agents.multiseed import seed_configs, train_seeds
+    from agents.multiseed import resumed_configs, seed_configs, train_seeds
     from agents.training import seed_dir
 
     if args.seed is not None:
         raise SystemExit("give either --seed or --seeds")
     if args.resume and args.config is not None:
         raise SystemExit("--resume continues with each seed's saved config.yml; drop --config")
-    configs = seed_configs(_load_train_config(args, env_id, None), args.seeds, out, args.resume)
+    if args.resume:
+        configs = resumed_configs(out, args.seeds, env_id, args.algo, args.timesteps)
+    else:
+        configs = seed_configs(_load_train_config(args, env_id, None), args.seeds)
     commands = {}
     for seed in args.seeds:
         one_seed = ["vegym", "train", "--env", env_name(env_id), "--algo", args.algo, "--seed", str(seed)]
@@ -415,6 +418,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (ConfigError, ValueError) as exc:
         say(f"error: {exc}", "red")
         return 2
+    except RuntimeError as exc:
+        say(f"error: {exc}", "red")
+        return 1
     except KeyboardInterrupt:
         say("interrupted")
         return 130

@@ -93,7 +93,7 @@ def retrain(
         config = load_config(CONFIG_DIR / f"{algo}.yml", env_id, algo, overrides)
         commands = {s: train_command(env_id, algo, seed_dir(out, s), timesteps, seed=s) for s in seeds}
         outcomes = train_seeds(
-            seed_configs(config, seeds, out, resume=False),
+            seed_configs(config, seeds),
             out,
             jobs=jobs,
             commands=commands,

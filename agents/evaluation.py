@@ -108,11 +108,13 @@ def load_seeded(agent_dir: Path) -> tuple[dict[int, AgentFactory], TrainConfig]:
         agent, configs[seed] = load_learned(path)
         factories[seed] = lambda env, agent=agent: agent
     first = next(iter(configs.values()))
+    settings = {k: v for k, v in first.to_entry().items() if k != "seed"}
     for seed, config in configs.items():
-        if (config.env_id, config.algo, config.env_kwargs) != (first.env_id, first.algo, first.env_kwargs):
+        differing = sorted(k for k, v in config.to_entry().items() if k != "seed" and settings.get(k) != v)
+        if differing:
             raise ValueError(
-                f"agent {str(agent_dir)!r}: seed {seed} is {config.algo} on {config.env_id} with env_kwargs "
-                f"{config.env_kwargs}, unlike the first seed's {first.algo} on {first.env_id} with {first.env_kwargs}"
+                f"agent {str(agent_dir)!r}: seed {seed} was trained with other settings than seed "
+                f"{first.seed} ({', '.join(differing)}); the seeds of one agent must share their config"
             )
     return factories, first
 

@@ -82,11 +82,22 @@ def _train_seed(config: TrainConfig, out: Path, resume: bool, command: str | Non
         channel.put(("failed", config.seed, f"{detail}\n{traceback.format_exc()}"))
 
 
-def seed_configs(config: TrainConfig, seeds: Sequence[int], out: Path, resume: bool) -> dict[int, TrainConfig]:
-    """The config of every seed: ``config`` with its seed replaced, or (``resume``) each seed's saved config."""
-    if resume:
-        return {s: resume_config(seed_dir(out, s), config.n_timesteps) for s in seeds}
+def seed_configs(config: TrainConfig, seeds: Sequence[int]) -> dict[int, TrainConfig]:
+    """The config of every seed: ``config`` with its seed replaced."""
     return {s: with_overrides(config, {"seed": s}, f"seed {s}") for s in seeds}
+
+
+def resumed_configs(
+    out: Path, seeds: Sequence[int], env_id: str, algo: str, n_timesteps: int | None = None
+) -> dict[int, TrainConfig]:
+    """Each seed's saved config, to resume it (with a new total ``n_timesteps`` if given); ValueError if a seed
+    holds no run or one of another env or algorithm."""
+    configs = {s: resume_config(seed_dir(out, s), n_timesteps) for s in seeds}
+    for seed, config in configs.items():
+        if (config.env_id, config.algo) != (env_id, algo):
+            where = seed_dir(out, seed)
+            raise ValueError(f"--resume: {where} is {config.algo} on {config.env_id}, not {algo} on {env_id}")
+    return configs
 
 
 def train_seeds(
@@ -117,14 +128,16 @@ def train_seeds(
         disable=not progress_bar,
     ) as progress:
         bars = {s: progress.add_task(f"seed {s}", total=configs[s].n_timesteps, start=False) for s in configs}
-        while pending or running:
+        while running or (pending and not stopping):
             try:
                 while pending and len(running) < jobs and not stopping:
-                    seed = pending.pop(0)
+                    seed = pending[0]
                     command = (commands or {}).get(seed)
                     args = (configs[seed], seed_dir(out, seed), resume, command, threads, channel)
-                    running[seed] = context.Process(target=_train_seed, args=args, name=f"vegym-train-seed-{seed}")
-                    running[seed].start()
+                    process = context.Process(target=_train_seed, args=args, name=f"vegym-train-seed-{seed}")
+                    process.start()
+                    running[seed] = process
+                    pending.pop(0)
                     progress.start_task(bars[seed])
                     log(f"seed {seed}: training into {seed_dir(out, seed)}")
                 _collect(channel, running, outcomes, progress, bars, log)

@@ -180,7 +180,8 @@ def save_score_chart(records: Sequence[dict], path: Path) -> None:
         for k, r in enumerate(shown):
             value = r["normalized_score"] if r["normalized_score"] is not None else np.nan
             interval = r["ci95_normalized_score"]
-            error = None if interval is None else [[value - interval[0]], [interval[1] - value]]
+            # clipped at 0: a point interval's bounds and the mean may differ by rounding
+            error = None if interval is None else [[max(value - interval[0], 0.0)], [max(interval[1] - value, 0.0)]]
             label = None if r["agent"] in labelled else r["agent"]
             labelled.add(r["agent"])
             x = i + (k - (len(shown) - 1) / 2) * width

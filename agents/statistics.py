@@ -1,12 +1,13 @@
-"""Interval estimates of normalized scores across training seeds and evaluation episodes (the rliable method).
+"""Interval estimates of normalized scores across training seeds and evaluation episodes (rliable's bootstrap).
 
-An agent's scores form a matrix of shape ``(runs, episodes)``: one row per training seed (a single row for the
+An agent's scores form a matrix of shape ``(seeds, episodes)``: one row per training seed (a single row for the
 analytic controller, the random policy and the references, which are not trained), one column per evaluation
 episode (the same seeds for every agent). The aggregates are the mean and the interquartile mean (IQM: the mean
-of the middle 50% of all scores) and their 95% confidence intervals come from rliable's stratified bootstrap
-(Agarwal et al., NeurIPS 2021), resampling the training seeds within each episode and, since the evaluation
-episodes are themselves a sample of initial conditions, the episodes too (``task_bootstrap``). The intervals
-are seeded, so a report is reproducible.
+of the middle 50% of all scores). Their 95% confidence intervals come from rliable's stratified bootstrap
+(Agarwal et al., NeurIPS 2021) applied to the nested structure of the data: the training seeds are the strata,
+whole seeds are resampled (``task_bootstrap``) and, within each, its episodes. A seed's episodes come from one
+model, so resampling seeds as a whole keeps the variation between seeds in the interval; with three seeds that
+part of the interval rests on three values and is coarse. The resampling is seeded, so a report is reproducible.
 """
 
 from __future__ import annotations
@@ -38,10 +39,10 @@ def _aggregates(scores: np.ndarray) -> np.ndarray:
 
 
 def summarize(scores: np.ndarray) -> ScoreSummary:
-    """Mean, IQM and their 95% CIs of ``scores``, shape ``(runs, episodes)`` (runs: training seeds)."""
+    """Mean, IQM and their 95% CIs of ``scores``, shape ``(seeds, episodes)``."""
     scores = np.asarray(scores, dtype=np.float64)
     if scores.ndim != 2 or scores.size == 0:
-        raise ValueError(f"scores must be a non-empty (runs, episodes) matrix, got shape {scores.shape}")
+        raise ValueError(f"scores must be a non-empty (seeds, episodes) matrix, got shape {scores.shape}")
     if not np.all(np.isfinite(scores)):
         raise ValueError("scores must be finite")
     # rliable draws its resampling indices from numpy's global generator (its random_state only reaches arch),
@@ -50,7 +51,7 @@ def summarize(scores: np.ndarray) -> ScoreSummary:
     np.random.seed(BOOTSTRAP_SEED)  # noqa: NPY002
     try:
         point, interval = library.get_interval_estimates(
-            {"agent": scores},
+            {"agent": scores.T},  # rliable's (runs, tasks): episodes resampled within each seed, seeds whole
             _aggregates,
             task_bootstrap=True,
             reps=BOOTSTRAP_REPS,

@@ -90,6 +90,7 @@ class SweepSettings:
             "timesteps": self.timesteps,
             "eval_episodes": self.eval_episodes,
             "tune_env": {k: list(v) for k, v in self.tune_env.items()},
+            "heartbeat": self.heartbeat,
         }
 
 
@@ -110,6 +111,8 @@ def parse_tune_env(items: Sequence[str], env_id: str) -> dict[str, tuple[float, 
                 env_params(env_id, {name: value})
             except TypeError:
                 raise ValueError(f"--tune-env {item!r}: {env_id} has no parameter {name!r}") from None
+            except ValueError as exc:
+                raise ValueError(f"--tune-env {item!r}: {exc}") from None
         ranges[name] = (low, high)
     return ranges
 
@@ -117,6 +120,23 @@ def parse_tune_env(items: Sequence[str], env_id: str) -> dict[str, tuple[float, 
 def default_storage(study: str) -> str:
     """The SQLite URL of a study in :data:`SWEEPS_DIR`."""
     return f"sqlite:///{SWEEPS_DIR / study}.db"
+
+
+def check_storage(url: str) -> None:
+    """ValueError unless ``url`` is a SQLite file or a PostgreSQL URL whose driver is installed."""
+    try:
+        parsed = make_url(url)
+    except sqlalchemy.exc.ArgumentError:
+        raise ValueError(f"--storage {url!r} is not a database URL (sqlite:///path.db, postgresql://...)") from None
+    backend = parsed.get_backend_name()
+    if backend == "sqlite" and parsed.database in (None, "", ":memory:"):
+        raise ValueError(f"--storage {url!r}: a sweep needs a SQLite file, e.g. sqlite:///runs/sweeps/study.db")
+    if backend not in ("sqlite", "postgresql"):
+        raise ValueError(f"--storage {url!r}: vegym sweep runs on sqlite:/// or postgresql:// storages")
+    try:
+        parsed.get_dialect().import_dbapi()
+    except ImportError:
+        raise ValueError(f'--storage {url!r}: its database driver is missing: pip install -e ".[postgres]"') from None
 
 
 def open_storage(url: str, heartbeat: int, attempts: int = 3) -> RDBStorage:
@@ -149,17 +169,15 @@ class StudyLock:
     PostgreSQL advisory lock otherwise. :meth:`release` may be called more than once."""
 
     def __init__(self, url: str, study: str) -> None:
+        check_storage(url)
         parsed = make_url(url)
         self.backend = parsed.get_backend_name()
         if self.backend == "sqlite":
-            if not parsed.database or parsed.database == ":memory:":
-                raise ValueError(f"storage={url!r}: a sweep needs a SQLite file, not an in-memory database")
-            self._file = open(f"{parsed.database}.{study}.lock", "a+")  # noqa: SIM115 (held for the worker's life)
-        elif self.backend == "postgresql":
+            digest = zlib.crc32(study.encode())  # study names may hold any character
+            self._file = open(f"{parsed.database}.{digest:08x}.lock", "a+")  # noqa: SIM115 (held by the worker)
+        else:
             self._engine = create_engine(url)
             self._key = zlib.crc32(f"vegym-sweep:{study}".encode())
-        else:
-            raise ValueError(f"storage={url!r}: vegym sweep runs on sqlite:/// or postgresql:// storages")
         self._connection: Any = None
         self.held = False
 
@@ -309,11 +327,15 @@ def load_study(settings: SweepSettings) -> optuna.Study:
     """Create the study or load it; ValueError if it was created for other settings."""
     optuna.logging.set_verbosity(optuna.logging.WARNING)
     storage = open_storage(settings.storage, settings.heartbeat)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+        sampler = optuna.samplers.TPESampler(constant_liar=True)  # running trials steer parallel workers apart
     study = optuna.create_study(
         study_name=settings.study,
         storage=storage,
         direction="maximize",
         load_if_exists=True,
+        sampler=sampler,
         pruner=optuna.pruners.MedianPruner(n_startup_trials=5, n_warmup_steps=0),
     )
     wanted = settings.study_attrs()
@@ -369,7 +391,13 @@ def run_worker(settings: SweepSettings, name: str = "worker", log: Callable[[str
                     lock.release()  # the last trials run elsewhere: wait for them to finish or to go stale
                     time.sleep(min(settings.heartbeat, 5))
                     continue
-                study.optimize(unlocked_objective, n_trials=1, catch=TRIAL_ERRORS, callbacks=[report])
+                try:
+                    study.optimize(unlocked_objective, n_trials=1, catch=TRIAL_ERRORS, callbacks=[report])
+                except ValueError as exc:
+                    if "Cannot tell a FAIL trial" not in str(exc):  # Optuna has no class of its own for it
+                        raise
+                    failures = 0
+                    log(f"{name}: its trial was failed as stale by another worker (missed heartbeats) and is retried")
             finally:
                 lock.release()
             ran += 1
@@ -397,6 +425,7 @@ def sweep(
         raise ValueError(f"workers={workers!r} must be at least 1")
     if settings.trials < 1:
         raise ValueError(f"trials={settings.trials!r} must be at least 1")
+    check_storage(settings.storage)
     study = load_study(settings)  # create it once, before the workers race to
     if workers == 1:
         torch.set_num_threads(threads)
@@ -416,9 +445,15 @@ def sweep(
         for process in processes:
             process.join()
         raise
-    failed = [p.name for p in processes if p.exitcode not in (0, None)]
+    failed = [f"{p.name} (exit code {p.exitcode})" for p in processes if p.exitcode not in (0, None)]
+    finished = len(study.get_trials(deepcopy=False, states=FINISHED))
+    if failed and finished < settings.trials:
+        raise RuntimeError(
+            f"sweep workers {', '.join(failed)} stopped with {finished} of {settings.trials} trials finished; "
+            "run the same command again to finish the study"
+        )
     if failed:
-        raise RuntimeError(f"sweep workers {', '.join(failed)} exited with an error (their output is above)")
+        log(f"warning: workers {', '.join(failed)} stopped, but the others finished the study")
     return study
 
 

@@ -86,13 +86,15 @@ def seed_runs(agent_dir: Path) -> dict[int, Path]:
     """The trained runs of one agent by training seed: ``agent_dir`` itself if it holds a model (one seed, the
     one in its config), else its ``seed_<k>/`` directories holding a model; empty if there is none."""
     agent_dir = Path(agent_dir)
-    if (agent_dir / MODEL_FILE).is_file():
-        return {load_resolved(agent_dir / CONFIG_FILE).seed: agent_dir}
     runs = {}
     for path in agent_dir.glob(f"{SEED_DIR_PREFIX}*"):
         suffix = path.name[len(SEED_DIR_PREFIX) :]
         if suffix.isdigit() and (path / MODEL_FILE).is_file():
             runs[int(suffix)] = path
+    if (agent_dir / MODEL_FILE).is_file():
+        if runs:
+            raise ValueError(f"{agent_dir} holds both a run (model.zip) and seed_<k>/ runs; keep one layout")
+        return {load_resolved(agent_dir / CONFIG_FILE).seed: agent_dir}
     return dict(sorted(runs.items()))
 
 
@@ -163,6 +165,8 @@ def train(
         raise ValueError(f"--resume: {out} holds no model or checkpoint to resume from")
     if not resume and source is not None:
         raise ValueError(f"{out} already holds a training run; pass --resume or choose another --out")
+    if not resume and any(out.glob(f"{SEED_DIR_PREFIX}*/{MODEL_FILE}")):
+        raise ValueError(f"{out} holds seed_<k>/ runs; train one seed into it with --seeds K, or choose another --out")
     out.mkdir(parents=True, exist_ok=True)
     done = 0 if source is None else saved_timesteps(source)
     env = make_env(config, config.seed + done)

@@ -392,6 +392,15 @@ def test_train_seeds_trains_each_seed_and_reports_a_failed_one(tmp_path: Path) -
         command
         == f"vegym train --env Projectile-v0 --algo ppo --seed 2 --timesteps 256 --out {out / 'seed_2'} --no-progress"
     )
+    single = run_cli(*args, "--no-progress")  # a single run into a directory of seed runs mixes the layouts
+    assert single.returncode == 2 and "holds seed_<k>/ runs" in single.stdout
+    resume = ["train", "--env", "Projectile-v0", "--algo", "ppo", "--out", str(out), "--seeds", "1,2", "--resume"]
+    resumed = run_cli(*resume, "--timesteps", "5000")
+    assert resumed.returncode == 0, resumed.stdout + resumed.stderr
+    assert all(saved_timesteps(out / f"seed_{s}" / "model.zip") >= 5000 for s in (1, 2))
+    assert saved_timesteps(out / "seed_3" / "model.zip") < 5000
+    wrong = run_cli("train", "--env", "Projectile-v0", "--algo", "sac", "--out", str(out), "--seeds", "1", "--resume")
+    assert wrong.returncode == 2 and "is ppo on vegym/Projectile-v0, not sac" in wrong.stdout
     name, factories, config = agent_factory(str(out), "vegym/Projectile-v0")
     assert name == "ppo" and list(factories) == [1, 2, 3]
     record = evaluate_agents("vegym/Projectile-v0", {"ppo": factories}, episodes=2)[-1].record()

@@ -48,3 +48,12 @@ def test_one_run_is_bootstrapped_over_episodes() -> None:
 def test_bad_score_matrices_are_rejected(bad: np.ndarray) -> None:
     with pytest.raises(ValueError, match="scores must be"):
         summarize(bad)
+
+
+def test_seeds_are_resampled_whole() -> None:
+    """Seeds far apart and episodes alike: the interval spans the seeds' spread (resampling a seed per episode,
+    as if every episode came from an independent model, would make it about ten times narrower)."""
+    episodes = np.random.default_rng(3).normal(0.0, 0.01, 20)
+    scores = np.stack([0.5 + episodes, 1.0 + episodes, 1.5 + episodes])
+    low, high = summarize(scores).mean_ci95
+    assert low < 0.75 and high > 1.25

@@ -16,6 +16,7 @@ import pytest
 from optuna.storages import RetryHeartbeatStaleTrialCallback
 from optuna.trial import TrialState
 
+from agents.cli import main
 from agents.config import CONFIG_DIR, load_config, load_configs, with_overrides
 from agents.sweep import parse_tune_env, sample_hyperparams
 
@@ -150,7 +151,18 @@ def test_tune_env_ranges_are_checked_against_the_env_parameters() -> None:
     assert ranges == {"bottom_out_penalty": (0.5, 5.0)}
     with pytest.raises(ValueError, match="has no parameter 'nope'"):
         parse_tune_env(["nope=0:1"], "vegym/Suspension-v0")
-    with pytest.raises(ValueError, match="bottom_out_penalty"):
+    with pytest.raises(ValueError, match="--tune-env 'bottom_out_penalty=-1:1': bottom_out_penalty"):
         parse_tune_env(["bottom_out_penalty=-1:1"], "vegym/Suspension-v0")
     with pytest.raises(ValueError, match="expected NAME=LOW:HIGH"):
         parse_tune_env(["bottom_out_penalty"], "vegym/Suspension-v0")
+
+
+def test_bad_storage_urls_are_clear_errors(capsys: pytest.CaptureFixture[str]) -> None:
+    base = ["sweep", "--env", "BouncingBall-v0", "--algo", "td3", "--trials", "1"]
+    for storage, message in [
+        ("foo", "is not a database URL"),
+        ("sqlite://", "a sweep needs a SQLite file"),
+        ("mysql://u@h/db", "runs on sqlite:/// or postgresql://"),
+    ]:
+        assert main([*base, "--storage", storage]) == 2
+        assert message in capsys.readouterr().out
