@@ -133,6 +133,34 @@ def test_killed_worker_leaves_a_study_that_a_second_run_finishes(tmp_path: Path)
     assert len(retried) == 1 and retried[0].params == failed[0].params
 
 
+@pytest.mark.filterwarnings("ignore::optuna.exceptions.ExperimentalWarning")  # retried_trial_number
+def test_the_other_worker_finishes_the_study_of_a_killed_worker(tmp_path: Path) -> None:
+    """--workers 2, one worker killed mid-trial: the other retries its trial and completes the study."""
+    storage, study = f"sqlite:///{tmp_path / 'study.db'}", "one-killed"
+    command = subprocess.Popen(
+        sweep_args(storage, study, 4, "--workers", "2", "--heartbeat", "1", "--best", str(tmp_path / "best.yml")),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.monotonic() + 300
+    while not training_trials(tmp_path / "study.db"):
+        if time.monotonic() > deadline:
+            pytest.fail("no worker started a trial")
+        time.sleep(0.2)
+    children = Path(f"/proc/{command.pid}/task/{command.pid}/children").read_text().split()
+    workers = [int(pid) for pid in children if "spawn_main" in Path(f"/proc/{pid}/cmdline").read_text()]
+    assert len(workers) == 2
+    os.kill(workers[0], signal.SIGKILL)
+    stdout, stderr = command.communicate(timeout=600)
+    assert command.returncode == 0, stdout + stderr
+    assert "stopped, but the others finished the study" in stdout
+    assert_complete_study(storage, study, 4)
+    trials = optuna.load_study(study_name=study, storage=storage).get_trials()
+    for failed in (t for t in trials if t.state == TrialState.FAIL):
+        assert any(RetryHeartbeatStaleTrialCallback.retried_trial_number(t) == failed.number for t in trials)
+
+
 @pytest.mark.parametrize("algo", ["ppo", "sac", "td3"])
 def test_sampled_hyperparameters_make_valid_configs(algo: str) -> None:
     study = optuna.create_study(sampler=optuna.samplers.RandomSampler(seed=0))
