@@ -12,6 +12,7 @@ from vegym import rng
 from vegym.envs.base import Task, Transition, VegymEnv, VegymVectorEnv
 from vegym.params import Params, invalid, param
 from vegym.physics import particle
+from vegym.physics.columns import pairwise_sum
 from vegym.physics.particle import STANDARD_GRAVITY, ParticleParams
 
 _FIRST_TARGET_STREAM = 1
@@ -110,28 +111,6 @@ def _targets_kernel(keys: np.ndarray, count: int, c: np.ndarray, offsets: np.nda
 
 
 @njit(cache=True)
-def _pairwise_sum(values: np.ndarray) -> float:
-    """``np.sum`` of a contiguous 1-d float64 array, bit for bit: numpy's pairwise summation (8 accumulators)."""
-    n = len(values)
-    if n < 8:
-        total = 0.0
-        for x in values:
-            total += x
-        return total
-    if n > 128:
-        half = n // 2
-        half -= half % 8
-        return _pairwise_sum(values[:half]) + _pairwise_sum(values[half:])
-    r = values[:8].copy()
-    for i in range(8, n - n % 8, 8):
-        r += values[i : i + 8]
-    total = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
-    for i in range(n - n % 8, n):
-        total += values[i]
-    return total
-
-
-@njit(cache=True)
 def _step_kernel(
     action: np.ndarray,
     speed: np.ndarray,
@@ -165,7 +144,7 @@ def _step_kernel(
             _fill_targets(keys[i], skipped, c, offsets)
             for k in range(len(skipped)):
                 skipped[k] = skipped[k] - radius if k >= bounces else 0.0
-            rest_cost = _pairwise_sum(skipped) / height_scale
+            rest_cost = pairwise_sum(skipped) / height_scale
         errors = error_sum[i] + error + rest_cost
         counted = max(bounces, bounces_planned) if at_rest[i] else bounces
         success[i] = errors / counted <= success_error

@@ -6,11 +6,13 @@ from dataclasses import dataclass
 
 import numpy as np
 from gymnasium import spaces
+from numba import njit
 
 from vegym import rng
 from vegym.envs.base import State, Task, Transition, VegymEnv, VegymVectorEnv
 from vegym.params import Params, invalid, param
 from vegym.physics import thread
+from vegym.physics.columns import pairwise_sum
 from vegym.physics.particle import STANDARD_GRAVITY
 from vegym.physics.thread import ThreadParams
 
@@ -78,6 +80,77 @@ class ThreadEnvParams(Params):
         return np.where(at > middle, np.ceil(at - 0.5), np.floor(at + 0.5)).astype(np.int64) - 1
 
 
+STEP_CONSTANTS = ("max_force", "dt", "settle_fraction", "effort_weight", "pluck_max", "velocity_scale")
+"""Parameters the kernels read, in the order of their constants array (SI units, see the fields)."""
+
+
+@njit(cache=True)
+def _step_kernel(
+    action: np.ndarray,
+    positions: np.ndarray,
+    velocities: np.ndarray,
+    initial_excess: np.ndarray,
+    actuated: np.ndarray,
+    substeps: int,
+    rest_energy: float,
+    c: np.ndarray,
+    physics: tuple[float, float, float, float, float, float],
+) -> tuple[np.ndarray, ...]:
+    """The whole step, fused per episode: ``substeps`` semi-implicit Euler steps of the thread (``thread.advance``)
+    under the actuator forces, then its energy; ``c`` holds the parameters named in ``STEP_CONSTANTS`` and
+    ``physics`` is ``ThreadParams.constants``."""
+    max_force, dt, settle_fraction, effort_weight = c[0], c[1], c[2], c[3]
+    n, n_nodes, n_actuators = len(action), positions.shape[1], len(actuated)
+    new_positions, new_velocities = positions.copy(), velocities.copy()
+    forces = np.empty((n, n_actuators, 2))
+    out = np.empty((3, n))  # energy, excess, fraction
+    terms, reward, settled = np.empty((2, n)), np.empty(n), np.empty(n, np.bool_)
+    applied, scratch = np.zeros((n_nodes, 2)), np.empty((n_nodes, 2))
+    buffer = np.empty(max(2 * n_nodes + 2, action.shape[1]))
+    h = dt / substeps
+    for i in range(n):
+        for k in range(n_actuators):
+            forces[i, k, 0], forces[i, k, 1] = max_force * action[i, 2 * k], max_force * action[i, 2 * k + 1]
+            applied[actuated[k], 0], applied[actuated[k], 1] = forces[i, k, 0], forces[i, k, 1]
+        for _ in range(substeps):
+            thread.advance(new_positions[i], new_velocities[i], applied, h, physics, scratch)
+        energy = thread.energy_one(new_positions[i], new_velocities[i], physics, buffer)
+        excess = energy - rest_energy
+        fraction = excess / initial_excess[i]
+        settled[i] = fraction <= settle_fraction
+        squares = buffer[: action.shape[1]]
+        for k in range(action.shape[1]):
+            squares[k] = action[i, k] * action[i, k]
+        terms[0, i] = -dt * fraction
+        terms[1, i] = -effort_weight * dt * (pairwise_sum(squares) / action.shape[1])
+        reward[i] = terms[0, i] + terms[1, i]
+        out[0, i], out[1, i], out[2, i] = energy, excess, fraction
+    return new_positions, new_velocities, forces, out, terms, reward, settled
+
+
+@njit(cache=True)
+def _observe_kernel(
+    positions: np.ndarray,
+    velocities: np.ndarray,
+    excess: np.ndarray,
+    initial_excess: np.ndarray,
+    equilibrium: np.ndarray,
+    c: np.ndarray,
+) -> np.ndarray:
+    """Observations (n, 4 N + 1); ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
+    pluck_max, velocity_scale = c[4], c[5]
+    n, n_nodes = positions.shape[0], positions.shape[1]
+    obs = np.empty((n, 4 * n_nodes + 1), np.float32)
+    for i in range(n):
+        for j in range(n_nodes):
+            for k in range(2):
+                displacement = (positions[i, j, k] - equilibrium[j, k]) / pluck_max
+                obs[i, 2 * j + k] = min(max(displacement, -1.0), 1.0)
+                obs[i, 2 * n_nodes + 2 * j + k] = min(max(velocities[i, j, k] / velocity_scale, -1.0), 1.0)
+        obs[i, 4 * n_nodes] = min(max(excess[i] / initial_excess[i], 0.0), 1.0)
+    return obs
+
+
 class ThreadTask(Task[ThreadEnvParams]):
     """Batched logic of Thread-v0 (see :class:`ThreadEnv`)."""
 
@@ -98,6 +171,7 @@ class ThreadTask(Task[ThreadEnvParams]):
         low[-1] = 0.0
         self.observation_space = spaces.Box(low, np.ones(n_obs, np.float32), dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (2 * params.n_actuators,), np.float32)
+        self._constants = np.array([getattr(params, name) for name in STEP_CONSTANTS], dtype=np.float64)
 
     @property
     def control_rate(self) -> float:
@@ -118,22 +192,10 @@ class ThreadTask(Task[ThreadEnvParams]):
 
     def step(self, state: State, action: np.ndarray) -> Transition:
         p = self.params
-        n = len(action)
-        forces = p.max_force * action.reshape(n, p.n_actuators, 2)
-        applied = np.zeros((n, p.n_nodes, 2))
-        applied[:, self.actuated] = forces
-        positions, velocities = state["positions"], state["velocities"]
-        h = p.dt / self.substeps
-        for _ in range(self.substeps):
-            positions, velocities = thread.step(positions, velocities, applied, h, self.physics)
-        energy = thread.energy(positions, velocities, self.physics)
-        excess = energy - self.rest_energy
-        fraction = excess / state["initial_excess"]
-        settled = fraction <= p.settle_fraction
-        terms = {
-            "energy": -p.dt * fraction,
-            "effort": -p.effort_weight * p.dt * np.mean(action * action, axis=1),
-        }
+        positions, velocities, forces, (energy, excess, fraction), terms, reward, settled = _step_kernel(
+            action, state["positions"], state["velocities"], state["initial_excess"], self.actuated, self.substeps,
+            self.rest_energy, self._constants, self.physics.constants,
+        )  # fmt: skip
         new_state = {**state, "positions": positions, "velocities": velocities, "excess": excess}
         info = {
             "positions": positions,
@@ -142,21 +204,17 @@ class ThreadTask(Task[ThreadEnvParams]):
             "energy": energy,
             "excess_energy": excess,
             "energy_fraction": fraction,
-            "dt": np.full(n, p.dt),
-            "reward_terms": terms,
+            "dt": np.full(len(action), p.dt),
+            "reward_terms": {"energy": terms[0], "effort": terms[1]},
             "is_success": settled,
         }
-        return Transition(new_state, terms["energy"] + terms["effort"], settled, info)
+        return Transition(new_state, reward, settled, info)
 
     def observe(self, state: State) -> np.ndarray:
-        p = self.params
-        n = len(state["excess"])
-        displacement = (state["positions"] - self.equilibrium) / p.pluck_max
-        obs = np.empty((n, 4 * p.n_nodes + 1), np.float32)
-        obs[:, : 2 * p.n_nodes] = np.clip(displacement.reshape(n, -1), -1.0, 1.0)
-        obs[:, 2 * p.n_nodes : -1] = np.clip(state["velocities"].reshape(n, -1) / p.velocity_scale, -1.0, 1.0)
-        obs[:, -1] = np.clip(state["excess"] / state["initial_excess"], 0.0, 1.0)
-        return obs
+        return _observe_kernel(
+            state["positions"], state["velocities"], state["excess"], state["initial_excess"], self.equilibrium,
+            self._constants,
+        )  # fmt: skip
 
 
 class ThreadEnv(VegymEnv[ThreadEnvParams]):

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 
 def flat_columns(*arrays: np.ndarray | float) -> tuple[tuple[int, ...], list[np.ndarray]]:
@@ -14,3 +15,26 @@ def flat_columns(*arrays: np.ndarray | float) -> tuple[tuple[int, ...], list[np.
         np.ascontiguousarray(c).reshape(-1) if c.shape == shape else np.array(np.broadcast_to(c, shape)).reshape(-1)
         for c in columns
     ]
+
+
+@njit(cache=True)
+def pairwise_sum(values: np.ndarray) -> float:
+    """``np.sum`` of a contiguous 1-d float64 array, bit for bit: numpy's pairwise summation (8 accumulators), for
+    kernels that must add up as the numpy code they replace did."""
+    n = len(values)
+    if n < 8:
+        total = 0.0
+        for x in values:
+            total += x
+        return total
+    if n > 128:
+        half = n // 2
+        half -= half % 8
+        return pairwise_sum(values[:half]) + pairwise_sum(values[half:])
+    r = values[:8].copy()
+    for i in range(8, n - n % 8, 8):
+        r += values[i : i + 8]
+    total = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]))
+    for i in range(n - n % 8, n):
+        total += values[i]
+    return total

@@ -23,8 +23,10 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from vegym.params import Params, param
+from vegym.physics.columns import pairwise_sum
 from vegym.physics.particle import STANDARD_GRAVITY
 
 
@@ -47,6 +49,11 @@ class ThreadParams(Params):
         return min(bound, self.node_mass / self.drag) if self.drag > 0 else bound
 
     @property
+    def constants(self) -> tuple[float, float, float, float, float, float]:
+        """``(S, l, m, g, c, span)``, as the kernels take them (SI)."""
+        return (self.stiffness, self.natural_length, self.node_mass, self.gravity, self.drag, self.span)
+
+    @property
     def ends(self) -> np.ndarray:
         """The fixed end points ``p_0`` and ``p_{N+1}``, shape (2, 2)."""
         return np.array([[0.0, 0.0], [self.span, 0.0]])
@@ -66,15 +73,127 @@ def spring_forces(positions: np.ndarray, params: ThreadParams) -> tuple[np.ndarr
     return (params.stiffness * (length - params.natural_length) / length)[..., None] * d, length
 
 
+@njit(cache=True)
+def accelerate(
+    positions: np.ndarray,
+    velocities: np.ndarray,
+    forces: np.ndarray,
+    c: tuple[float, float, float, float, float, float],
+    out: np.ndarray,
+) -> None:
+    """Accelerations (N, 2) of one thread's nodes (m/s^2), written into ``out``: springs, gravity, drag and the
+    applied forces (N, 2) (N); ``c = ThreadParams.constants``. The one compiled form of the model, behind
+    :func:`acceleration`, :func:`step` and Thread-v0's kernel."""
+    stiffness, natural_length, mass, gravity, drag, span = c
+    n = len(positions)
+    before_x, before_y = 0.0, 0.0
+    for j in range(n + 1):  # spring j joins p_j and p_{j+1}; p_0 = (0, 0) and p_{N+1} = (span, 0) are fixed
+        x0, y0 = (0.0, 0.0) if j == 0 else (positions[j - 1, 0], positions[j - 1, 1])
+        x1, y1 = (span, 0.0) if j == n else (positions[j, 0], positions[j, 1])
+        dx, dy = x1 - x0, y1 - y0
+        length = math.sqrt(dx * dx + dy * dy)
+        tension = stiffness * (length - natural_length) / length
+        fx, fy = tension * dx, tension * dy
+        if j > 0:
+            i = j - 1
+            out[i, 0] = (fx - before_x - drag * velocities[i, 0] + forces[i, 0]) / mass
+            out[i, 1] = (fy - before_y - drag * velocities[i, 1] + forces[i, 1]) / mass - gravity
+        before_x, before_y = fx, fy
+
+
+@njit(cache=True)
+def advance(
+    positions: np.ndarray,
+    velocities: np.ndarray,
+    forces: np.ndarray,
+    dt: float,
+    c: tuple[float, float, float, float, float, float],
+    scratch: np.ndarray,
+) -> None:
+    """One semi-implicit Euler step of ``dt`` seconds of one thread, in place on ``positions`` and ``velocities``
+    (N, 2); ``scratch`` (N, 2) receives the accelerations."""
+    accelerate(positions, velocities, forces, c, scratch)
+    for i in range(len(positions)):
+        for k in range(2):
+            velocities[i, k] = velocities[i, k] + dt * scratch[i, k]
+            positions[i, k] = positions[i, k] + dt * velocities[i, k]
+
+
+@njit(cache=True)
+def energy_one(
+    positions: np.ndarray,
+    velocities: np.ndarray,
+    c: tuple[float, float, float, float, float, float],
+    scratch: np.ndarray,
+) -> float:
+    """:func:`energy` of one thread (J), summed in numpy's order; ``scratch`` holds at least 2 N + 2 floats."""
+    stiffness, natural_length, mass, gravity, _, span = c
+    n = len(positions)
+    squares = scratch[: 2 * n]
+    for i in range(n):
+        squares[2 * i], squares[2 * i + 1] = velocities[i, 0] * velocities[i, 0], velocities[i, 1] * velocities[i, 1]
+    kinetic = 0.5 * mass * pairwise_sum(squares)
+    heights = scratch[:n]
+    for i in range(n):
+        heights[i] = positions[i, 1]
+    potential = mass * gravity * pairwise_sum(heights)
+    stretches = scratch[: n + 1]
+    for j in range(n + 1):
+        x0, y0 = (0.0, 0.0) if j == 0 else (positions[j - 1, 0], positions[j - 1, 1])
+        x1, y1 = (span, 0.0) if j == n else (positions[j, 0], positions[j, 1])
+        dx, dy = x1 - x0, y1 - y0
+        stretch = math.sqrt(dx * dx + dy * dy) - natural_length
+        stretches[j] = stretch * stretch
+    return kinetic + potential + 0.5 * stiffness * pairwise_sum(stretches)
+
+
+@njit(cache=True)
+def _accelerate_each(
+    positions: np.ndarray,
+    velocities: np.ndarray,
+    forces: np.ndarray,
+    c: tuple[float, float, float, float, float, float],
+) -> np.ndarray:
+    out = np.empty_like(positions)
+    for b in range(len(positions)):
+        accelerate(positions[b], velocities[b], forces[b], c, out[b])
+    return out
+
+
+@njit(cache=True)
+def _advance_each(
+    positions: np.ndarray,
+    velocities: np.ndarray,
+    forces: np.ndarray,
+    dt: float,
+    c: tuple[float, float, float, float, float, float],
+) -> None:
+    scratch = np.empty(positions.shape[1:])
+    for b in range(len(positions)):
+        advance(positions[b], velocities[b], forces[b], dt, c, scratch)
+
+
+@njit(cache=True)
+def _energy_each(
+    positions: np.ndarray, velocities: np.ndarray, c: tuple[float, float, float, float, float, float]
+) -> np.ndarray:
+    out, scratch = np.empty(len(positions)), np.empty(2 * positions.shape[1] + 2)
+    for b in range(len(positions)):
+        out[b] = energy_one(positions[b], velocities[b], c, scratch)
+    return out
+
+
+def _batch(*arrays: np.ndarray | float) -> list[np.ndarray]:
+    """``arrays`` broadcast to one shape (n, N, 2) as new contiguous float64 arrays."""
+    shape = np.broadcast_shapes(*(np.shape(a) for a in arrays))
+    return [np.array(np.broadcast_to(np.asarray(a, dtype=np.float64), shape)) for a in arrays]
+
+
 def acceleration(
     positions: np.ndarray, velocities: np.ndarray, forces: np.ndarray | float, params: ThreadParams
 ) -> np.ndarray:
     """Node accelerations (n, N, 2) (m/s^2): springs, gravity, drag and the applied forces ``u`` (N)."""
-    p = params
-    f, _ = spring_forces(positions, p)
-    a = (f[:, 1:] - f[:, :-1] - p.drag * velocities + forces) / p.node_mass
-    a[..., 1] -= p.gravity
-    return a
+    return _accelerate_each(*_batch(positions, velocities, forces), params.constants)
 
 
 def step(
@@ -89,8 +208,9 @@ def step(
             f"dt={dt!r} is outside the stable range (0, {params.stable_step:.4g}) s: semi-implicit Euler needs "
             "dt < sqrt(m/S) and dt < m/c; split the step (thread.substeps)"
         )
-    v = velocities + dt * acceleration(positions, velocities, forces, params)
-    return positions + dt * v, v
+    positions, velocities, forces = _batch(positions, velocities, forces)
+    _advance_each(positions, velocities, forces, float(dt), params.constants)
+    return positions, velocities
 
 
 def substeps(dt: float, params: ThreadParams, margin: float = 0.5) -> int:
@@ -101,12 +221,7 @@ def substeps(dt: float, params: ThreadParams, margin: float = 0.5) -> int:
 def energy(positions: np.ndarray, velocities: np.ndarray, params: ThreadParams) -> np.ndarray:
     """Mechanical energy (n,) (J): kinetic ``sum m |v|^2 / 2`` + gravity ``sum m g y`` + elastic
     ``sum S (L - l)^2 / 2``."""
-    p = params
-    _, length = spring_forces(positions, p)
-    kinetic = 0.5 * p.node_mass * np.sum(velocities * velocities, axis=(1, 2))
-    potential = p.node_mass * p.gravity * np.sum(positions[..., 1], axis=1)
-    stretch = length - p.natural_length
-    return kinetic + potential + 0.5 * p.stiffness * np.sum(stretch * stretch, axis=1)
+    return _energy_each(*_batch(positions, velocities), params.constants)
 
 
 @functools.lru_cache(maxsize=32)
