@@ -124,6 +124,7 @@ def _load_train_config(args: argparse.Namespace, env_id: str, seed: int | None) 
 
 def _train_seeds(args: argparse.Namespace, env_id: str, out: Path) -> int:
     """``vegym train --seeds``: one run per seed in ``out/seed_<k>``, ``--jobs`` processes at a time."""
+    from agents.compare import train_command
     from agents.multiseed import resumed_configs, seed_configs, train_seeds
     from agents.training import seed_dir
 
@@ -135,14 +136,12 @@ def _train_seeds(args: argparse.Namespace, env_id: str, out: Path) -> int:
         configs = resumed_configs(out, args.seeds, env_id, args.algo, args.timesteps)
     else:
         configs = seed_configs(_load_train_config(args, env_id, None), args.seeds)
-    commands = {}
-    for seed in args.seeds:
-        one_seed = ["vegym", "train", "--env", env_name(env_id), "--algo", args.algo, "--seed", str(seed)]
-        if args.config:
-            one_seed += ["--config", args.config]
-        if args.timesteps:
-            one_seed += ["--timesteps", str(args.timesteps)]
-        commands[seed] = shlex.join([*one_seed, "--out", str(seed_dir(out, seed)), "--no-progress"])
+    commands = {
+        seed: train_command(
+            env_id, args.algo, seed_dir(out, seed), args.timesteps, seed=seed, config=args.config, progress=False
+        )
+        for seed in args.seeds
+    }
     jobs = min(args.jobs, len(args.seeds))
     say(f"training {args.algo} on {env_id} with seeds {args.seeds}, {jobs} at a time, into {out}/seed_<k>")
     outcomes = train_seeds(

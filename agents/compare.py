@@ -59,18 +59,22 @@ def train_command(
     *,
     seed: int | None = None,
     seeds: Sequence[int] | None = None,
+    config: str | None = None,
+    progress: bool = True,
 ) -> str:
-    """The ``vegym train`` command that trains ``algo`` on ``env_id`` from the committed config into ``out``:
-    with ``seed``, that seed's run; with ``seeds``, one run per seed in ``out/seed_<k>``."""
+    """The ``vegym train`` command that trains ``algo`` on ``env_id`` from the committed config (or ``config``)
+    into ``out``: with ``seed``, that seed's run; with ``seeds``, one run per seed in ``out/seed_<k>``."""
     args = ["vegym", "train", "--env", env_name(env_id), "--algo", algo]
     if seed is not None:
         args += ["--seed", str(seed)]
     if seeds is not None:
         args += ["--seeds", ",".join(map(str, seeds))]
+    if config is not None:
+        args += ["--config", config]
     args += ["--out", _display(out)]
     if timesteps is not None:
         args += ["--timesteps", str(timesteps)]
-    return shlex.join(args)
+    return shlex.join(args if progress else [*args, "--no-progress"])
 
 
 def retrain(

@@ -390,7 +390,7 @@ def test_train_seeds_trains_each_seed_and_reports_a_failed_one(tmp_path: Path) -
     command = (out / "seed_2" / "command.txt").read_text().strip()
     assert (
         command
-        == f"vegym train --env Projectile-v0 --algo ppo --seed 2 --timesteps 256 --out {out / 'seed_2'} --no-progress"
+        == f"vegym train --env Projectile-v0 --algo ppo --seed 2 --out {out / 'seed_2'} --timesteps 256 --no-progress"
     )
     single = run_cli(*args, "--no-progress")  # a single run into a directory of seed runs mixes the layouts
     assert single.returncode == 2 and "holds seed_<k>/ runs" in single.stdout
