@@ -19,6 +19,7 @@ from multiprocessing.process import BaseProcess
 from pathlib import Path
 from typing import Any
 
+import torch
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 from stable_baselines3.common.callbacks import BaseCallback
 
@@ -63,8 +64,6 @@ class _ReportProgress(BaseCallback):
 def _train_seed(config: TrainConfig, out: Path, resume: bool, command: str | None, threads: int, channel: Any) -> None:
     """Worker process: train one seed, then put ``("done", seed, result)`` or ``("failed", seed, error)``."""
     try:
-        import torch
-
         torch.set_num_threads(threads)
         result = train(
             config,
