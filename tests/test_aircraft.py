@@ -12,6 +12,7 @@ import vegym  # noqa: F401
 from agents.analytic import AircraftDraftCompensatingAutopilot, controller_for
 from vegym import rng
 from vegym.envs.aircraft import AircraftEnvParams, AircraftTask
+from vegym.envs.base import owned
 from vegym.physics import aircraft
 
 ENV_ID, GUSTY_ID = "vegym/Aircraft-v0", "vegym/AircraftGusty-v0"
@@ -105,19 +106,25 @@ def test_task_on_any_subset_of_a_batch_gives_exactly_those_rows() -> None:
     task = AircraftTask(params)
     n, random = 64, np.random.default_rng(8)
     keys = rng.seed_keys(np.arange(n))
-    state = {**task.initial_state(keys), "key": keys, "step": np.zeros(n, dtype=np.int64)}
+    state = owned({**task.initial_state(keys), "key": keys, "step": np.zeros(n, dtype=np.int64)})
     for _ in range(60):
         action = random.uniform(-1.0, 1.0, (n, 3))
         subset = random.random(n) < 0.5
-        full = task.step(state, action)
-        part = task.step({k: v[subset] for k, v in state.items()}, action[subset])
-        for k, v in part.state.items():
-            assert np.array_equal(v, full.state[k][subset]), k
-        assert np.array_equal(part.reward, full.reward[subset])
-        assert np.array_equal(task.observe(part.state), task.observe(full.state)[subset])
+        part_state = {k: v[subset] for k, v in state.items()}
+        full, part = task.outputs(n), task.outputs(int(subset.sum()))
+        task.step(state, action, full)
+        task.step(part_state, action[subset], part)
+        for k, v in part_state.items():
+            assert np.array_equal(v, state[k][subset]), k
+        for k, v in part.items():
+            assert np.array_equal(v, full[k][subset]), k
+        full_info, part_info = task.info(state, full), task.info(part_state, part)
         for k in ("position", "vertical_speed", "demand", "errors", "is_success"):
-            assert np.array_equal(part.info[k], full.info[k][subset]), k
-        state = {**full.state, "key": keys, "step": state["step"] + 1}
+            assert np.array_equal(part_info[k], full_info[k][subset]), k
+        state["step"] += 1
+        obs = np.empty_like(full["obs"])
+        task.observe(state, obs)
+        assert np.array_equal(obs, full["obs"])
     assert np.all(state["changes"] >= 5)
 
 
@@ -127,10 +134,10 @@ def test_demands_change_at_random_times_from_the_seed_alone_and_never_near_the_e
     for policy in (random_policy(1), random_policy(2)):
         env = gym.make_vec(ENV_ID, num_envs=200, vectorization_mode="vector_entry_point")
         obs, _ = env.reset(seed=9)
-        demands, since = [env.unwrapped.state["demand"]], [obs[:, 7]]
+        demands, since = [env.unwrapped.state["demand"].copy()], [obs[:, 7]]
         for _ in range(p.episode_steps):
             obs, *_ = env.step(policy(obs))
-            demands.append(env.unwrapped.state["demand"])
+            demands.append(env.unwrapped.state["demand"].copy())
             since.append(obs[:, 7])
         schedules.append((np.array(demands), np.array(since)))
     (demands, since), (other, _) = schedules
@@ -155,7 +162,7 @@ def test_demands_change_at_random_times_from_the_seed_alone_and_never_near_the_e
 def test_info_is_the_step_just_taken_in_si_units() -> None:
     env = gym.make(GUSTY_ID)
     env.reset(seed=2)
-    before = dict(env.unwrapped.state)
+    before = {k: v.copy() for k, v in env.unwrapped.state.items()}
     _, reward, _, _, info = env.step(np.array([0.5, -1.0, 1.0], dtype=np.float32))
     assert set(info) == {
         "position",

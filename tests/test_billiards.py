@@ -72,21 +72,21 @@ def test_the_cut_action_sets_the_angle_at_which_b_departs_from_a_s_path() -> Non
     task = BilliardsTask(BilliardsParams())
     state = {"ball_a": np.zeros((5, 2)), "ball_b": np.tile([[0.8, 0.0]], (5, 1)), "target": np.ones((5, 2))}
     cut = np.array([-0.9, -0.5, 0.0, 0.5, 0.9])
-    info = task.step(state, np.stack([cut, np.ones(5)], axis=-1)).info
+    _, _, info = task.transition(state, np.stack([cut, np.ones(5)], axis=-1))
     aim, leave = info["strike_velocity"], info["velocity_b"]
     sine = (aim[:, 0] * leave[:, 1] - aim[:, 1] * leave[:, 0]) / np.linalg.norm(aim, axis=-1)
     np.testing.assert_allclose(sine / np.linalg.norm(leave, axis=-1), cut, atol=1e-12)
     assert leave[4, 1] > 0  # positive cut: toward increasing bearing (+z here)
-    slow = task.step(state, np.array([[0.0, -1.0]] * 5))
-    assert not slow.info["contact"].any()
-    np.testing.assert_allclose(slow.info["miss_distance"], np.hypot(0.2, 1.0))
+    _, _, slow = task.transition(state, np.array([[0.0, -1.0]] * 5))
+    assert not slow["contact"].any()
+    np.testing.assert_allclose(slow["miss_distance"], np.hypot(0.2, 1.0))
 
 
 def test_every_episode_is_reachable_and_the_speed_envelope_is_enforced() -> None:
     p = BilliardsParams()
     task = BilliardsTask(p)
     keys = vegym.rng.seed_keys(np.arange(5000))
-    obs = task.observe(task.initial_state(keys)).astype(np.float64)
+    obs = task.observation(task.initial_state(keys)).astype(np.float64)
     _, speed = ghost_ball_shot(
         obs[:, 0] * p.ball_distance_max, obs[:, 1] * p.target_distance_max, np.arctan2(obs[:, 2], obs[:, 3]), p
     )

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import math
 import pickle
@@ -14,6 +15,7 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import vegym
+from vegym.envs import base
 
 ENV_IDS = list(vegym.ENVS)
 
@@ -130,6 +132,43 @@ def test_vector_env_matches_single_envs_including_mixed_resets(env_id: str) -> N
         needs_reset = terminated | truncated
     if limit > 1:
         assert mixed_steps > 0, "no step had some sub-envs resetting and others not"
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_returned_arrays_are_never_written_by_later_steps(env_id: str) -> None:
+    """The envs update their state in place; what step and reset returned must stay as it was."""
+    limit = min(gym.spec(env_id).max_episode_steps, 5)
+    vec = gym.make_vec(env_id, num_envs=3, vectorization_mode="vector_entry_point", max_episode_steps=limit)
+    single = gym.make(env_id, max_episode_steps=limit)
+    actions = random_actions(env_id, 30 * 3, seed=6).reshape(30, 3, -1)
+    kept_vec, kept_single = [vec.reset(seed=0)], [single.reset(seed=0)]
+    for step_actions in actions:
+        kept_vec.append(vec.step(step_actions))
+        kept_single.append(single.step(step_actions[0]))
+        if kept_single[-1][2] or kept_single[-1][3]:
+            kept_single.append(single.reset())
+    copies = copy.deepcopy((kept_vec, kept_single))
+    for step_actions in actions:
+        vec.step(step_actions)
+        single.step(step_actions[0])
+        single.reset()
+    assert_same(copies, (kept_vec, kept_single))
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_threaded_chunks_step_exactly_as_one_chunk(env_id: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    n = 64
+    limit = min(gym.spec(env_id).max_episode_steps, 7)
+    actions = random_actions(env_id, 20 * n, seed=8).reshape(20, n, -1)
+
+    def run() -> list[tuple]:
+        vec = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", max_episode_steps=limit)
+        return [vec.reset(seed=3)] + [vec.step(step_actions) for step_actions in actions]
+
+    one_chunk = run()
+    monkeypatch.setattr(base, "PARALLEL_MIN_ENVS", 8)
+    monkeypatch.setattr(base, "_core_count", lambda: 3)
+    assert_same(one_chunk, run())
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)

@@ -8,6 +8,7 @@ import pytest
 
 import vegym  # noqa: F401
 from agents.analytic import GearTrainProportional, controller_for
+from vegym.envs.base import owned
 from vegym.envs.gear_train import GearTrainParams, GearTrainTask
 from vegym.physics import wheel
 
@@ -42,7 +43,7 @@ def test_every_gear_turns_by_the_ratio_law_with_alternating_signs_and_equal_rim_
     task = GearTrainTask(GearTrainParams())
     n = 64
     keys = vegym.rng.seed_keys(np.arange(n))
-    state = {**task.initial_state(keys), "key": keys, "step": np.zeros(n, np.int64)}
+    state = owned({**task.initial_state(keys), "key": keys, "step": np.zeros(n, np.int64)})
     rows = np.arange(n)
     assert set(state["gears"]) == {2, 3, 4, 5}
     last = state["gears"] - 1
@@ -53,27 +54,30 @@ def test_every_gear_turns_by_the_ratio_law_with_alternating_signs_and_equal_rim_
         chains = state["gears"] == count
         np.testing.assert_allclose(ratio[chains], wheel.train_ratio(state["radii"][chains, :count]), rtol=1e-15)
     actions = np.random.default_rng(1).uniform(-1, 1, (40, n, 1))
+    out = task.outputs(n)
     for action in actions:
-        t = task.step(state, action)
-        turned = wheel.wrap_angle(t.state["angles"] - state["angles"]) / task.params.dt
-        np.testing.assert_allclose(turned[:, 0], t.info["input_speed"], atol=1e-12)
+        angles = state["angles"].copy()
+        task.step(state, action, out)
+        info = task.info(state, out)
+        turned = wheel.wrap_angle(state["angles"] - angles) / task.params.dt
+        np.testing.assert_allclose(turned[:, 0], info["input_speed"], atol=1e-12)
         np.testing.assert_allclose(turned[:, 1:] * state["radii"][:, 1:], -turned[:, :-1] * state["radii"][:, :-1])
-        np.testing.assert_allclose(turned[rows, last], ratio * t.info["input_speed"], atol=1e-12)
-        moving = np.abs(t.info["input_speed"]) > 1e-9
+        np.testing.assert_allclose(turned[rows, last], ratio * info["input_speed"], atol=1e-12)
+        moving = np.abs(info["input_speed"]) > 1e-9
         np.testing.assert_array_equal(np.sign(turned[moving]), np.sign(turned[moving, :1]) * (-1.0) ** np.arange(5))
-        state = {**t.state, "key": keys, "step": state["step"] + 1}
+        state["step"] += 1
 
 
 def test_the_motor_follows_its_command_within_the_acceleration_limit() -> None:
     p = GearTrainParams()
     task = GearTrainTask(p)
     keys = vegym.rng.seed_keys(np.arange(3))
-    state = {**task.initial_state(keys), "key": keys, "step": np.zeros(3, np.int64)}
-    speeds = []
+    state = owned({**task.initial_state(keys), "key": keys, "step": np.zeros(3, np.int64)})
+    out, speeds = task.outputs(3), []
     for _ in range(8):
-        t = task.step(state, np.array([[1.0], [-1.0], [0.05]]))
-        speeds.append(t.info["input_speed"])
-        state = {**t.state, "key": keys, "step": state["step"] + 1}
+        task.step(state, np.array([[1.0], [-1.0], [0.05]]), out)
+        speeds.append(task.info(state, out)["input_speed"].copy())
+        state["step"] += 1
     dv = p.max_acceleration * p.dt
     np.testing.assert_allclose(np.array(speeds)[:, 0], np.minimum(dv * np.arange(1, 9), p.max_speed))
     np.testing.assert_allclose(np.array(speeds)[:, 1], -np.minimum(dv * np.arange(1, 9), p.max_speed))
@@ -89,12 +93,15 @@ def test_targets_change_every_interval_from_the_key_alone_and_the_observation_wr
     changes = np.flatnonzero(np.any(np.diff(targets, axis=0) != 0, axis=1)) + 1
     np.testing.assert_array_equal(changes, [10, 20, 30])
     assert np.abs(targets).max() <= np.pi
-    state = {**task.initial_state(keys), "key": keys, "step": np.zeros(4, np.int64)}
+    state = owned({**task.initial_state(keys), "key": keys, "step": np.zeros(4, np.int64)})
     output = task.output_angle(state)
-    obs = task.observe(state)
+    obs = np.empty((4, 4), np.float32)
+    task.observe(state, obs)
     np.testing.assert_allclose(np.arctan2(obs[:, 0], obs[:, 1]), wheel.wrap_angle(targets[0] - output), atol=1e-6)
-    transition = task.step(state, np.zeros((4, 1)))
-    assert transition.info["error"] == pytest.approx(wheel.wrap_angle(targets[0] - output))
+    out = task.outputs(4)
+    task.step(state, np.zeros((4, 1)), out)
+    assert task.info(state, out)["error"] == pytest.approx(wheel.wrap_angle(targets[0] - output))
+    np.testing.assert_array_equal(out["target"], targets[0])
 
 
 def test_parameters_that_could_turn_the_output_half_a_turn_per_step_are_rejected() -> None:

@@ -72,10 +72,10 @@ def test_targets_change_at_random_times_from_the_seed_alone_and_never_near_the_e
         env = gym.make_vec(ENV_ID, num_envs=200, vectorization_mode="vector_entry_point")
         rng = np.random.default_rng(seed)
         obs, _ = env.reset(seed=9)
-        targets = [env.unwrapped.state["target"]]
+        targets = [env.unwrapped.state["target"].copy()]
         for _ in range(p.episode_steps):
             obs, *_ = env.step(rng.uniform(-1.0, 1.0, (200, 1)).astype(np.float32))
-            targets.append(env.unwrapped.state["target"])
+            targets.append(env.unwrapped.state["target"].copy())
             np.testing.assert_allclose(obs[:, 3], targets[-1] / np.pi, rtol=1e-6)
         schedules.append(np.array(targets))
     targets = schedules[0]

@@ -54,11 +54,12 @@ def test_the_wind_is_hidden_and_the_setup_is_projectile_v0_s() -> None:
     state, setup = task.initial_state(keys), plain.initial_state(keys)
     for k, v in setup.items():
         np.testing.assert_array_equal(state[k], v)
-    calm = {**state, "wind": np.zeros_like(state["wind"])}
-    np.testing.assert_array_equal(task.observe(state), task.observe(calm))
+    calm = {**{k: v.copy() for k, v in state.items()}, "wind": np.zeros_like(state["wind"])}
+    np.testing.assert_array_equal(task.observation(state), task.observation(calm))
     action = np.tile([[0.1, 0.05, 0.8]], (50, 1))
-    windy, still = task.step(state, action), task.step(calm, action)
-    assert not np.allclose(task.observe(windy.state), task.observe(still.state))
+    (after, windy, _), (_, still, _) = task.transition(state, action), task.transition(calm, action)
+    np.testing.assert_array_equal(windy["obs"], task.observation(after))  # the step observes the state after it
+    assert not np.allclose(windy["obs"], still["obs"])
 
 
 def test_one_miss_of_any_shot_gives_the_wind_exactly() -> None:
@@ -69,7 +70,7 @@ def test_one_miss_of_any_shot_gives_the_wind_exactly() -> None:
     state = {**task.initial_state(keys), "key": keys, "step": np.zeros(n, np.int64)}
     action = np.random.default_rng(2).uniform(-1, 1, (n, 3)).astype(np.float32).astype(np.float64)
     action[:, 0] = np.abs(action[:, 0])  # upward shots: every flight time is long enough to divide by
-    info = task.step(state, action).info
+    _, _, info = task.transition(state, action)
     distance, _, (along, across) = ProjectileTask.target_frame(state)
     miss = np.stack([info["miss_along"], info["miss_across"]], axis=-1)
     wind = wind_from_shot(distance, state["launch_position"][:, 1], miss, action, p)
@@ -83,25 +84,23 @@ def test_the_observation_lists_the_newest_shots_first_and_the_episode_ends_on_a_
     assert task.observation_space.shape == (3 + 6 * 3,)
     keys = vegym.rng.seed_keys(np.arange(2))
     state = {**task.initial_state(keys), "key": keys, "step": np.zeros(2, np.int64)}
-    obs = task.observe(state)
+    obs = task.observation(state)
     np.testing.assert_array_equal(obs[:, 2:], 0.0)
     actions = [np.array([[0.2, 0.1, 0.5], [0.5, 1.0, 1.0]]), np.array([[0.3, -0.1, 0.4], [0.5, 1.0, 1.0]])]
     for k, action in enumerate(actions):
-        t = task.step(state, action)
-        state = {**t.state, "key": keys, "step": state["step"] + 1}
-        obs = task.observe(state)
+        state, out, info = task.transition(state, action)
+        obs = out["obs"]
         np.testing.assert_allclose(obs[:, 2], (k + 1) / 4)
         np.testing.assert_array_equal(obs[:, 3:].reshape(2, 3, 6)[:, :, 0], [[1.0] * (k + 1) + [0.0] * (2 - k)] * 2)
         np.testing.assert_allclose(obs[:, 6:9], action, rtol=1e-7)  # the newest shot's actions
-        miss = np.stack([t.info["miss_along"], t.info["miss_across"]], -1) / p.miss_scale
+        miss = np.stack([info["miss_along"], info["miss_across"]], -1) / p.miss_scale
         np.testing.assert_allclose(obs[:, 4:6], np.clip(miss, -1, 1), rtol=1e-6, atol=1e-7)
-        assert not t.terminated.any()
+        assert not out["terminated"].any()
     np.testing.assert_allclose(obs[:, 12:15], actions[0], rtol=1e-7)  # the older one moved down a slot
     assert obs[1, 5] == 1.0  # 45 degrees up, square to the line of fire: ~90 m off, beyond miss_scale, clipped
     for _ in range(2):
-        t = task.step(state, actions[1])
-        state = {**t.state, "key": keys, "step": state["step"] + 1}
-    assert t.terminated.all() and task.observation_space.contains(task.observe(state)[0])
+        state, out, _ = task.transition(state, actions[1])
+    assert out["terminated"].all() and task.observation_space.contains(task.observation(state)[0])
     with pytest.raises(ValueError, match="wind_speed_max"):
         ProjectileAdjustParams(wind_speed_max=0.0)
     with pytest.raises(ValueError, match="max_shots"):

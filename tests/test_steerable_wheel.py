@@ -57,7 +57,7 @@ def test_info_keys_are_the_pinned_ones_and_describe_the_step_in_si_units() -> No
     env = gym.make(ENV_ID)
     env.reset(seed=4)
     p: SteerableWheelParams = env.unwrapped.params
-    state = env.unwrapped.state
+    state = {k: v.copy() for k, v in env.unwrapped.state.items()}  # the env updates its own arrays in place
     pose = Pose(state["position"][:, 0], state["position"][:, 1], state["heading"], state["roll"])
     path = 0.0
     speed = 0.0
@@ -100,41 +100,41 @@ def test_a_waypoint_passed_between_samples_counts_and_several_may_count_in_one_s
     task = SteerableWheelTask(p)
     # heading +x at 2 m/s for 0.5 s: the chord runs from x = 0 to x = 1; samples at both ends miss (0.5, 0.1)
     state = single_state(task, (0.0, 0.0), np.pi / 2, [(0.5, 0.1), (0.9, -0.15), (5.0, 5.0)], speed=2.0)
-    t = task.step(state, np.array([[1.0, 0.0]]))
-    np.testing.assert_allclose(t.state["position"], [[1.0, 0.0]], atol=1e-15)
-    assert t.info["waypoint_index"][0] == 2 and not t.terminated[0]
-    assert t.info["reward_terms"]["waypoint"][0] == 2 * p.waypoint_bonus
-    assert t.info["reward_terms"]["progress"][0] == pytest.approx(np.hypot(0.5, 0.1) - np.hypot(0.5, 0.1))
+    after, out, info = task.transition(state, np.array([[1.0, 0.0]]))
+    np.testing.assert_allclose(after["position"], [[1.0, 0.0]], atol=1e-15)
+    assert info["waypoint_index"][0] == 2 and not out["terminated"][0]
+    assert info["reward_terms"]["waypoint"][0] == 2 * p.waypoint_bonus
+    assert info["reward_terms"]["progress"][0] == pytest.approx(np.hypot(0.5, 0.1) - np.hypot(0.5, 0.1))
     miss = single_state(task, (0.0, 0.0), np.pi / 2, [(0.5, 0.25), (0.9, -0.15), (5.0, 5.0)], speed=2.0)
-    assert task.step(miss, np.array([[1.0, 0.0]])).info["waypoint_index"][0] == 0
+    assert task.transition(miss, np.array([[1.0, 0.0]]))[2]["waypoint_index"][0] == 0
     np.testing.assert_allclose(segment_distance(np.array([[3.0, 4.0]]), np.zeros((1, 2)), np.zeros((1, 2))), [5.0])
 
 
 def test_the_last_waypoint_ends_the_episode_with_success_and_leaving_the_arena_ends_it_with_the_exit_cost() -> None:
     p = SteerableWheelParams(n_waypoints=1)
     task = SteerableWheelTask(p)
-    done = task.step(single_state(task, (0.0, 0.0), 0.0, [(0.0, 0.3)], speed=1.0), np.array([[0.0, 0.0]]))
-    assert done.terminated[0] and done.info["is_success"][0] and done.info["reward_terms"]["exit"][0] == 0.0
-    np.testing.assert_allclose(task.observe(done.state)[0, [0, 3, 7]], [0.2 / p.diagonal, 0.2 / p.diagonal, 1.0])
+    done, out, info = task.transition(single_state(task, (0, 0), 0.0, [(0.0, 0.3)], speed=1.0), np.zeros((1, 2)))
+    assert out["terminated"][0] and info["is_success"][0] and info["reward_terms"]["exit"][0] == 0.0
+    np.testing.assert_allclose(out["obs"][0, [0, 3, 7]], [0.2 / p.diagonal, 0.2 / p.diagonal, 1.0])
+    np.testing.assert_array_equal(task.observation(done), out["obs"])
     edge = (p.half_size - 0.05, 0.0)
-    out = task.step(single_state(task, edge, np.pi / 2, [(0.0, 5.0)], speed=1.0), np.array([[0.0, 0.0]]))
-    assert out.terminated[0] and not out.info["is_success"][0]
-    assert out.info["reward_terms"]["exit"][0] == -p.exit_penalty
-    assert out.info["reward_terms"]["progress"][0] < 0
-    obs = task.observe(out.state)
-    assert task.observation_space.contains(obs[0])
+    _, out, info = task.transition(single_state(task, edge, np.pi / 2, [(0.0, 5.0)], speed=1.0), np.zeros((1, 2)))
+    assert out["terminated"][0] and not info["is_success"][0]
+    assert info["reward_terms"]["exit"][0] == -p.exit_penalty
+    assert info["reward_terms"]["progress"][0] < 0
+    assert task.observation_space.contains(out["obs"][0])
 
 
 def test_observation_is_in_the_wheel_frame_and_a_positive_yaw_action_turns_toward_a_waypoint_on_the_left() -> None:
     task = SteerableWheelTask(SteerableWheelParams())
     # heading +z; left is +x (PHYSICS.md section 0), so a waypoint at +x is 90 degrees to the left
     state = single_state(task, (1.0, 2.0), 0.0, [(4.0, 2.0), (1.0, -2.0), (0, 0), (0, 0), (0, 0)])
-    obs = task.observe(state)[0]
+    obs = task.observation(state)[0]
     diagonal = task.params.diagonal
     np.testing.assert_allclose(obs[:3], [3.0 / diagonal, 1.0, 0.0], atol=1e-7)
     np.testing.assert_allclose(obs[3:6], [4.0 / diagonal, 0.0, -1.0], atol=1e-7)
-    turned = task.step(state, np.array([[0.0, 1.0]])).state
-    assert turned["heading"][0] > 0 and task.observe(turned)[0, 2] > 0  # the bearing's cosine grows
+    turned, out, _ = task.transition(state, np.array([[0.0, 1.0]]))
+    assert turned["heading"][0] > 0 and out["obs"][0, 2] > 0  # the bearing's cosine grows
 
 
 def test_observations_reach_their_bounds_only_where_documented() -> None:
@@ -169,13 +169,14 @@ def test_task_step_batched_equals_looped_bit_for_bit() -> None:
     state = {**task.initial_state(keys), "key": keys, "step": np.zeros(16, np.int64)}
     actions = np.random.default_rng(0).uniform(-1, 1, (30, 16, 2))
     for action in actions:
-        batched = task.step(state, action)
+        batched, batched_out, _ = task.transition(state, action)
         for i in range(16):
-            one = task.step({k: v[i : i + 1] for k, v in state.items()}, action[i : i + 1])
-            assert one.reward[0] == batched.reward[i] and one.terminated[0] == batched.terminated[i]
-            for k, v in one.state.items():
-                np.testing.assert_array_equal(v[0], batched.state[k][i])
-        state = {**batched.state, "key": keys, "step": state["step"] + 1}
+            one, one_out, _ = task.transition({k: v[i : i + 1] for k, v in state.items()}, action[i : i + 1])
+            for k, v in one_out.items():
+                np.testing.assert_array_equal(v[0], batched_out[k][i])
+            for k, v in one.items():
+                np.testing.assert_array_equal(v[0], batched[k][i])
+        state = {**batched, "step": state["step"] + 1}
 
 
 @pytest.mark.parametrize(

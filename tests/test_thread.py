@@ -99,7 +99,9 @@ def test_info_is_the_thread_step_in_si_units_and_settling_ends_the_episode() -> 
     positions, velocities = env.unwrapped.state["positions"].copy(), env.unwrapped.state["velocities"].copy()
     initial = float(env.unwrapped.state["initial_excess"][0])
     controller = controller_for(env)
-    obs = env.unwrapped.task.observe(env.unwrapped.state)[0]
+    observed = np.empty((1, *env.observation_space.shape), np.float32)
+    env.unwrapped.task.observe(env.unwrapped.state, observed)
+    obs = observed[0]
     terminated, steps = False, 0
     while not terminated and steps < 100:
         steps += 1

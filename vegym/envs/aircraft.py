@@ -10,7 +10,7 @@ from gymnasium import spaces
 from numba import njit
 
 from vegym import rng
-from vegym.envs.base import Task, Transition, VegymEnv, VegymVectorEnv
+from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
 from vegym.envs.schedule import ScheduledParams
 from vegym.params import Params, invalid, param
 from vegym.physics import aircraft
@@ -114,87 +114,134 @@ STEP_CONSTANTS = (
     "altitude_tolerance",
     "speed_tolerance",
     "heading_tolerance",
+    "gust_amplitude",
+    "min_speed",
+    "max_speed",
+    "vertical_speed_scale",
+    "change_interval_max",
 )
-"""Parameters the step kernel reads, in the order of its constants array (SI units, see the fields)."""
+"""Parameters the kernels read, in the order of their constants array (SI units, see the fields)."""
 REWARD_TERMS = ("altitude", "speed", "heading", "effort")
-"""Names of ``info["reward_terms"]``, in the order of the step kernel's rows."""
+"""Names of ``info["reward_terms"]``, in the order of the step kernel's ``terms`` columns."""
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _step_kernel(
     action: np.ndarray,
+    key: np.ndarray,
+    step: np.ndarray,
     position: np.ndarray,
     speed: np.ndarray,
     heading: np.ndarray,
-    vertical_wind: np.ndarray,
+    command: np.ndarray,
+    vertical_speed: np.ndarray,
+    draft: np.ndarray,
     demand: np.ndarray,
+    last_change: np.ndarray,
+    next_change: np.ndarray,
     c: np.ndarray,
     envelope: tuple[float, float, float, float, float, float],
-) -> tuple[np.ndarray, ...]:
-    """The whole step, fused per episode; ``c`` holds the parameters named in ``STEP_CONSTANTS``, in that order."""
+    gust_offset: np.uint64,
+    flown: np.ndarray,
+    errors: np.ndarray,
+    terms: np.ndarray,
+    reward: np.ndarray,
+    success: np.ndarray,
+    terminated: np.ndarray,
+    obs: np.ndarray,
+) -> int:
+    """The whole step and the next observation, fused per episode, in place on the state arrays (``position`` to
+    ``vertical_speed``) and into the outputs (``flown``, the demand of the step, to ``obs``); ``c`` holds the
+    parameters named in ``STEP_CONSTANTS``, in that order. The vertical wind is the episode's ``draft`` plus,
+    when ``gust_amplitude > 0``, a gust uniform in +-gust_amplitude drawn from the key's stream ``gust_offset``
+    at counter ``step``. Returns how many episodes have a demand change due at the new step (the caller advances
+    the schedule and observes again then; ``obs`` shows the demand before the change)."""
     high = (c[0], c[2], c[4])  # A_acc, V_cli, M: the upper command limits and the scales of positive actions
     low = (-c[1], -c[3], -c[4])
     dt, altitude_scale, speed_scale, effort_weight = c[5], c[6], c[7], c[8]
-    altitude_tolerance, speed_tolerance, heading_tolerance = c[9], c[10], c[11]
-    n = len(action)
-    new_position, new_speed, new_heading, command = np.empty((n, 3)), np.empty(n), np.empty(n), np.empty((n, 3))
-    climb, errors, terms = np.empty(n), np.empty((n, 3)), np.empty((4, n))
-    reward, success = np.empty(n), np.empty(n, np.bool_)
-    for i in range(n):
+    altitude_tolerance, speed_tolerance, heading_tolerance, gust = c[9], c[10], c[11], c[12]
+    due = 0
+    for i in range(len(action)):
         for j in range(3):
             u = action[i, j]
             command[i, j] = min(max(u * (high[j] if u >= 0.0 else -low[j]), low[j]), high[j])
         applied = (command[i, 0], command[i, 1], command[i, 2])
+        vertical_wind = draft[i]
+        if gust > 0.0:
+            base = rng.stream_base(key[i], gust_offset, np.uint64(step[i]))
+            vertical_wind = vertical_wind + (-gust + (gust + gust) * rng.lane(base, 0))
+        y0 = position[i, 1]
         x, y, z, v, psi = aircraft.fly(
-            position[i, 0], position[i, 1], position[i, 2], speed[i], heading[i], applied, vertical_wind[i], dt,
-            envelope, False,
-        )  # fmt: skip
-        new_position[i, 0], new_position[i, 1], new_position[i, 2] = x, y, z
-        new_speed[i], new_heading[i], climb[i] = v, psi, (y - position[i, 1]) / dt
+            position[i, 0], y0, position[i, 2], speed[i], heading[i], applied, vertical_wind, dt, envelope, False
+        )
+        position[i, 0], position[i, 1], position[i, 2] = x, y, z
+        speed[i], heading[i], vertical_speed[i] = v, psi, (y - y0) / dt
         e0, e1, e2 = demand[i, 0] - y, demand[i, 1] - v, aircraft.wrap_angle(demand[i, 2] - psi)
         errors[i, 0], errors[i, 1], errors[i, 2] = e0, e1, e2
+        flown[i, 0], flown[i, 1], flown[i, 2] = demand[i, 0], demand[i, 1], demand[i, 2]
         effort = action[i, 0] * action[i, 0] + action[i, 1] * action[i, 1] + action[i, 2] * action[i, 2]
-        terms[0, i] = -abs(min(max(e0 / altitude_scale, -1.0), 1.0)) / 3.0
-        terms[1, i] = -abs(min(max(e1 / speed_scale, -1.0), 1.0)) / 3.0
-        terms[2, i] = -abs(e2) / (3.0 * np.pi)
-        terms[3, i] = -effort_weight / 3.0 * effort
-        reward[i] = terms[0, i] + terms[1, i] + terms[2, i] + terms[3, i]
+        terms[i, 0] = -abs(min(max(e0 / altitude_scale, -1.0), 1.0)) / 3.0
+        terms[i, 1] = -abs(min(max(e1 / speed_scale, -1.0), 1.0)) / 3.0
+        terms[i, 2] = -abs(e2) / (3.0 * np.pi)
+        terms[i, 3] = -effort_weight / 3.0 * effort
+        reward[i] = terms[i, 0] + terms[i, 1] + terms[i, 2] + terms[i, 3]
         success[i] = abs(e0) <= altitude_tolerance and abs(e1) <= speed_tolerance and abs(e2) <= heading_tolerance
-    return new_position, new_speed, new_heading, command, climb, errors, terms, reward, success
+        terminated[i] = False
+        now = step[i] + 1
+        if now >= next_change[i]:
+            due += 1
+        _observe_row(i, now, position, speed, heading, command, vertical_speed, demand, last_change, c, obs)
+    return due
 
 
-@njit(cache=True)
-def _observe_kernel(
+@njit(cache=True, nogil=True)
+def _observe_row(
+    i: int,
+    now: int,
     position: np.ndarray,
     speed: np.ndarray,
     heading: np.ndarray,
     command: np.ndarray,
     vertical_speed: np.ndarray,
     demand: np.ndarray,
-    since_change: np.ndarray,
+    last_change: np.ndarray,
     c: np.ndarray,
-) -> np.ndarray:
-    """Observations (n, 8); ``c``: altitude and speed scales, v_min, v_max, vertical speed scale, dt / interval_max."""
-    altitude_scale, speed_scale, min_speed, max_speed, vertical_speed_scale, per_step = (
-        c[0],
-        c[1],
-        c[2],
-        c[3],
-        c[4],
-        c[5],
-    )
-    obs = np.empty((len(speed), 8), np.float32)
-    for i in range(len(speed)):
-        heading_error = demand[i, 2] - heading[i]  # only its sine and cosine are observed: no wrap needed
-        obs[i, 0] = min(max((demand[i, 0] - position[i, 1]) / altitude_scale, -1.0), 1.0)
-        obs[i, 1] = min(max((demand[i, 1] - speed[i]) / speed_scale, -1.0), 1.0)
-        obs[i, 2] = math.sin(heading_error)
-        obs[i, 3] = math.cos(heading_error)
-        obs[i, 4] = (speed[i] - min_speed) / (max_speed - min_speed)
-        obs[i, 5] = min(max(vertical_speed[i] / vertical_speed_scale, -1.0), 1.0)
-        obs[i, 6] = command[i, 1] / vertical_speed_scale
-        obs[i, 7] = min(since_change[i] * per_step, 1.0)
-    return obs
+    obs: np.ndarray,
+) -> None:
+    """Observation of episode ``i`` at step ``now`` into ``obs[i]``; ``c`` holds the parameters named in
+    ``STEP_CONSTANTS``."""
+    dt, altitude_scale, speed_scale = c[5], c[6], c[7]
+    min_speed, max_speed, vertical_speed_scale, interval_max = c[13], c[14], c[15], c[16]
+    heading_error = demand[i, 2] - heading[i]  # only its sine and cosine are observed: no wrap needed
+    obs[i, 0] = min(max((demand[i, 0] - position[i, 1]) / altitude_scale, -1.0), 1.0)
+    obs[i, 1] = min(max((demand[i, 1] - speed[i]) / speed_scale, -1.0), 1.0)
+    obs[i, 2] = math.sin(heading_error)
+    obs[i, 3] = math.cos(heading_error)
+    obs[i, 4] = (speed[i] - min_speed) / (max_speed - min_speed)
+    obs[i, 5] = min(max(vertical_speed[i] / vertical_speed_scale, -1.0), 1.0)
+    obs[i, 6] = command[i, 1] / vertical_speed_scale
+    obs[i, 7] = min((now - last_change[i]) * (dt / interval_max), 1.0)
+
+
+@njit(cache=True, nogil=True)
+def _observe_kernel(
+    rows: np.ndarray,
+    step: np.ndarray,
+    ahead: int,
+    position: np.ndarray,
+    speed: np.ndarray,
+    heading: np.ndarray,
+    command: np.ndarray,
+    vertical_speed: np.ndarray,
+    demand: np.ndarray,
+    last_change: np.ndarray,
+    c: np.ndarray,
+    obs: np.ndarray,
+) -> None:
+    """Observations (8,) of the episodes ``rows`` (int indices) at steps ``step + ahead`` into those rows of
+    ``obs``; ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
+    for i in rows:
+        _observe_row(i, step[i] + ahead, position, speed, heading, command, vertical_speed, demand, last_change, c, obs)
 
 
 class AircraftTask(Task[AircraftEnvParams]):
@@ -212,16 +259,7 @@ class AircraftTask(Task[AircraftEnvParams]):
         self.action_space = spaces.Box(-1.0, 1.0, (3,), np.float32)
         self._constants = np.array([getattr(params, name) for name in STEP_CONSTANTS], dtype=np.float64)
         self._envelope = aircraft.envelope(self.physics)
-        self._observation_constants = np.array(
-            [
-                params.altitude_scale,
-                params.speed_scale,
-                params.min_speed,
-                params.max_speed,
-                params.vertical_speed_scale,
-                params.dt / params.change_interval_max,
-            ]
-        )
+        self._gust_offset = rng.stream_offset(_GUST_STREAM)
 
     @property
     def control_rate(self) -> float:
@@ -241,7 +279,7 @@ class AircraftTask(Task[AircraftEnvParams]):
             axis=-1,
         )
 
-    def initial_state(self, keys: np.ndarray) -> dict[str, np.ndarray]:
+    def initial_state(self, keys: np.ndarray) -> State:
         p = self.params
         n = len(keys)
         u = rng.uniform(keys, _SETUP_STREAM, 4)
@@ -259,50 +297,49 @@ class AircraftTask(Task[AircraftEnvParams]):
         }
 
     @staticmethod
-    def aircraft_state(state: dict[str, np.ndarray]) -> AircraftState:
+    def aircraft_state(state: State) -> AircraftState:
         """The physics state of a task state."""
         return AircraftState(state["position"], state["speed"], state["heading"], state["command"])
 
-    def step(self, state: dict[str, np.ndarray], action: np.ndarray) -> Transition:
-        p = self.params
-        keys = state["key"]
-        vertical_wind = state["draft"]
-        if p.gust_amplitude > 0.0:
-            vertical_wind = (
-                vertical_wind
-                + rng.uniform_in(keys, _GUST_STREAM, -p.gust_amplitude, p.gust_amplitude, counter=state["step"])[:, 0]
-            )
-        position, speed, heading, command, climb, errors, terms, reward, success = _step_kernel(
-            action, state["position"], state["speed"], state["heading"], vertical_wind, state["demand"],
-            self._constants, self._envelope,
-        )  # fmt: skip
-        demand = state["demand"]
-        new_state = {
-            **state,
-            "position": position,
-            "speed": speed,
-            "heading": heading,
-            "command": command,
-            "vertical_speed": climb,
-            **self.schedule.advance(state, state["step"] + 1, "demand", self.draw_demand),
+    def output_shapes(self) -> dict[str, tuple[tuple[int, ...], type]]:
+        return {
+            "demand": ((3,), np.float64),
+            "errors": ((3,), np.float64),
+            "terms": ((len(REWARD_TERMS),), np.float64),
+            "success": ((), np.bool_),
         }
-        info = {
-            "position": position,
-            "speed": speed,
-            "heading": heading,
-            "vertical_speed": climb,
-            "dt": np.full(len(keys), p.dt),
-            "demand": demand,
-            "errors": errors,
-            "reward_terms": dict(zip(REWARD_TERMS, terms, strict=True)),
-            "is_success": success,
-        }
-        return Transition(new_state, reward, np.zeros(len(keys), dtype=bool), info)
 
-    def observe(self, state: dict[str, np.ndarray]) -> np.ndarray:
-        return _observe_kernel(
-            state["position"], state["speed"], state["heading"], state["command"], state["vertical_speed"],
-            state["demand"], state["step"] - state["last_change"], self._observation_constants,
+    def step(self, state: State, action: np.ndarray, out: State) -> None:
+        due = _step_kernel(
+            action, state["key"], state["step"], state["position"], state["speed"], state["heading"],
+            state["command"], state["vertical_speed"], state["draft"], state["demand"], state["last_change"],
+            state["next_change"], self._constants, self._envelope, self._gust_offset, out["demand"], out["errors"],
+            out["terms"], out["reward"], out["success"], out["terminated"], out["obs"],
+        )  # fmt: skip
+        if due:  # a demand changes at the new step: advance the schedule, then observe the new demands
+            changed = self.schedule.advance(state, state["step"] + 1, "demand", self.draw_demand)
+            _observe_kernel(
+                changed, state["step"], 1, state["position"], state["speed"], state["heading"], state["command"],
+                state["vertical_speed"], state["demand"], state["last_change"], self._constants, out["obs"],
+            )  # fmt: skip
+
+    def info(self, state: State, out: State) -> Info:
+        return {
+            "position": state["position"],
+            "speed": state["speed"],
+            "heading": state["heading"],
+            "vertical_speed": state["vertical_speed"],
+            "dt": self.params.dt,
+            "demand": out["demand"],
+            "errors": out["errors"],
+            "reward_terms": dict(zip(REWARD_TERMS, out["terms"].T, strict=True)),
+            "is_success": out["success"],
+        }
+
+    def observe(self, state: State, obs: np.ndarray) -> None:
+        _observe_kernel(
+            np.arange(len(obs)), state["step"], 0, state["position"], state["speed"], state["heading"],
+            state["command"], state["vertical_speed"], state["demand"], state["last_change"], self._constants, obs,
         )  # fmt: skip
 
 

@@ -1,26 +1,31 @@
 """The one dynamics implementation behind every vegym env, and its single and native-vector front ends.
 
-A :class:`Task` is the whole env logic as pure functions over *batches*: ``initial_state(keys)``,
-``step(state, action)`` and ``observe(state)``, where a state is a dict of numpy arrays with a leading
-batch axis. :class:`VegymEnv` runs a task with a batch of one; :class:`VegymVectorEnv` runs it with
-``num_envs`` and Gymnasium's NEXT_STEP autoreset. All randomness is counter-based on per-episode keys
-(:mod:`vegym.rng`), so sub-env ``i`` of a vector env reset with ``seed=s`` follows exactly the single env
-reset with ``seed=s + i``, step for step, whatever the other sub-envs do.
+A :class:`Task` is the whole env logic over *batches* of episodes, a state being a dict of numpy arrays with a
+leading batch axis: ``initial_state(keys)`` draws fresh episodes, ``step(state, action, out)`` advances every
+episode in place and writes the step's results into the arrays of ``outputs(n)``, ``observe(state, obs)``
+writes the observations. The steps run as numba kernels that loop over the episodes, so the same code serves
+:class:`VegymEnv` (a batch of one, its arrays reused from step to step) and :class:`VegymVectorEnv`
+(``num_envs`` episodes, Gymnasium's NEXT_STEP autoreset, large batches split over the CPU cores). All randomness
+is counter-based on per-episode keys (:mod:`vegym.rng`), so sub-env ``i`` of a vector env reset with ``seed=s``
+follows exactly the single env reset with ``seed=s + i``, step for step, whatever the other sub-envs do.
 """
 
 from __future__ import annotations
 
 import abc
 import importlib
-import math
-from collections.abc import Mapping
-from typing import Any, ClassVar, Generic, NamedTuple, TypeVar
+import itertools
+import os
+from collections.abc import Callable, Mapping
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any, ClassVar, Generic, TypeVar
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
+from numba import njit
 
 from vegym import rng
 from vegym.params import Params
@@ -31,23 +36,19 @@ Info = dict[str, Any]
 
 ACTION_TOLERANCE = 1e-6
 """Actions may exceed [-1, 1] by this much (float32 round-off) and are then clipped; more is an error."""
-
-
-class Transition(NamedTuple):
-    """The batched result of one task step."""
-
-    state: State
-    reward: np.ndarray
-    terminated: np.ndarray
-    info: Info
+PARALLEL_MIN_ENVS = 4096
+"""Vector envs with at least this many sub-envs step and observe in one chunk per CPU core, on threads (the
+kernels release the GIL); smaller batches run in the calling thread, where threads would cost more than they
+save."""
 
 
 class Task(abc.ABC, Generic[P]):
     """Batched task logic over frozen parameters: observation, action mapping, reward, termination.
 
     Subclasses set ``params_cls``, build ``observation_space`` and ``action_space`` (single-env spaces) in
-    ``__init__``, and implement the three pure methods below. ``state`` dicts always carry ``key`` (uint64
-    episode keys) and ``step`` (steps taken in the episode), maintained by the front ends.
+    ``__init__``, and implement the methods below. ``state`` dicts always carry ``key`` (uint64 episode keys)
+    and ``step`` (steps taken in the episode), maintained by the front ends. ``step`` and ``observe`` must work
+    on any row slice of the state (the vector env hands them chunks of its arrays).
     """
 
     params_cls: ClassVar[type[Params]]
@@ -69,47 +70,88 @@ class Task(abc.ABC, Generic[P]):
     def initial_state(self, keys: np.ndarray) -> State:
         """Fresh episode states for the episode keys ``keys`` (n,), drawing randomness from them only."""
 
-    @abc.abstractmethod
-    def step(self, state: State, action: np.ndarray) -> Transition:
-        """Advance every episode by one step with actions (n, action_dim) in [-1, 1]; pure."""
+    def start(self, state: State, keys: np.ndarray, rows: np.ndarray) -> None:
+        """Start the episodes of ``keys`` in the rows ``rows`` (int indices) of ``state``, in place (``key`` and
+        ``step`` are the front end's). Tasks whose episodes are one step long override it with a kernel."""
+        for name, value in self.initial_state(keys).items():
+            state[name][rows] = value
 
     @abc.abstractmethod
-    def observe(self, state: State) -> np.ndarray:
-        """Observations (n, obs_dim), float32, inside ``observation_space``."""
+    def output_shapes(self) -> dict[str, tuple[tuple[int, ...], type]]:
+        """Per-episode shape and dtype of every array ``step`` writes besides ``reward`` and ``terminated``."""
+
+    def outputs(self, n: int) -> State:
+        """Uninitialised output arrays of one step of ``n`` episodes: ``reward`` (float64), ``terminated`` (bool),
+        ``obs`` (the observations after the step, float32) and those of :meth:`output_shapes`, batch axis first."""
+        out = {
+            "reward": np.empty(n),
+            "terminated": np.empty(n, np.bool_),
+            "obs": np.empty((n, *self.observation_space.shape), np.float32),
+        }
+        for name, (shape, dtype) in self.output_shapes().items():
+            out[name] = np.empty((n, *shape), dtype)
+        return out
+
+    @abc.abstractmethod
+    def step(self, state: State, action: np.ndarray, out: State) -> None:
+        """Advance every episode of ``state`` in place by one step with actions (n, action_dim) in [-1, 1],
+        writing the results and the next observations into the arrays of ``out`` (from :meth:`outputs`)."""
+
+    @abc.abstractmethod
+    def info(self, state: State, out: State) -> Info:
+        """The step's ``info``: views of ``state`` (after the step) and of ``out``, or Python scalars for
+        constants; never arrays computed from them, since the single env builds it once and reads it each step."""
+
+    @abc.abstractmethod
+    def observe(self, state: State, obs: np.ndarray) -> None:
+        """Write the observations (n, obs_dim) into ``obs`` (float32), inside ``observation_space``."""
+
+    def transition(self, state: State, action: np.ndarray) -> tuple[State, State, Info]:
+        """One step as a pure function, for tests and analysis (the envs step in place): a copy of ``state``
+        advanced by ``action`` (n, action_dim), the step's outputs (``reward``, ``terminated``, ``obs``, ...)
+        and its info; ``state`` is left as it was."""
+        after = owned({name: value.copy() for name, value in state.items()})
+        out = self.outputs(len(action))
+        self.step(after, np.asarray(action, dtype=np.float64), out)
+        return after, out, self.info(after, out)
+
+    def observation(self, state: State) -> np.ndarray:
+        """The observations (n, obs_dim) of ``state``, in a new array."""
+        obs = np.empty((len(next(iter(state.values()))), *self.observation_space.shape), np.float32)
+        self.observe(state, obs)
+        return obs
 
 
-def first_of_batch(info: Info) -> Info:
-    """Row 0 of every array of a batched (nested) info dict: Python scalars for 1-d arrays, copies otherwise."""
-    out: Info = {}
-    for k, v in info.items():
-        if isinstance(v, dict):
-            out[k] = first_of_batch(v)
-        elif v.ndim == 1:
-            out[k] = v.item(0)
-        else:
-            out[k] = v[0].copy()
-    return out
+@njit(cache=True, nogil=True)
+def _load_actions(source: np.ndarray, target: np.ndarray, tolerance: float) -> int:
+    """Copy ``source`` (any shape with ``target.size`` elements) into the float64 array ``target`` (C order),
+    clipping values within ``tolerance`` outside [-1, 1]. Returns 0, or 1 for NaN/inf, 2 for values further out."""
+    flat = target.reshape(-1)
+    status = 0
+    for j, value in enumerate(source.flat):
+        x = np.float64(value)
+        if not np.isfinite(x):
+            return 1
+        if abs(x) > 1.0:
+            if abs(x) > 1.0 + tolerance:
+                status = 2
+            x = min(max(x, -1.0), 1.0)
+        flat[j] = x
+    return status
 
 
-def check_actions(action: Any, space: spaces.Box, batch_shape: tuple[int, ...]) -> np.ndarray:
-    """Actions as a new float64 array of shape ``batch_shape + space.shape``; ValueError on NaN/inf or out of range.
-
-    Values beyond [-1, 1] by at most ``ACTION_TOLERANCE`` are clipped to it.
-    """
-    a = np.array(action, dtype=np.float64)
-    expected = batch_shape + space.shape
-    if a.shape != expected:
-        if a.size != math.prod(expected):
-            raise ValueError(f"action has shape {a.shape}; expected {expected}")
-        a = a.reshape(expected)
-    bound = np.abs(a).max()  # NaN propagates, so one comparison rejects NaN, inf and out-of-range values
-    if not bound <= 1.0 + ACTION_TOLERANCE:
-        if not np.all(np.isfinite(a)):
-            raise ValueError(f"action contains NaN or inf: {np.asarray(action)!r}")
-        raise ValueError(f"action {np.asarray(action)!r} is outside the action space [-1, 1]")
-    if bound > 1.0:
-        np.clip(a, -1.0, 1.0, out=a)
-    return a
+def check_actions(action: Any, space: spaces.Box, target: np.ndarray) -> np.ndarray:
+    """Load ``action`` into ``target`` (float64, ``batch_shape + space.shape``) and return it; ValueError on a
+    wrong size, NaN/inf or values outside [-1, 1] by more than ``ACTION_TOLERANCE`` (those within are clipped)."""
+    a = action if isinstance(action, np.ndarray) else np.asarray(action, dtype=np.float64)
+    if a.size != target.size or a.dtype.kind not in "fiub":
+        raise ValueError(f"action has shape {a.shape} and dtype {a.dtype}; expected {target.shape} of floats")
+    status = _load_actions(a, target, ACTION_TOLERANCE)
+    if status == 1:
+        raise ValueError(f"action contains NaN or inf: {a!r}")
+    if status == 2:
+        raise ValueError(f"action {a!r} is outside the action space [-1, 1]")
+    return target
 
 
 def load_object(path: str) -> Any:
@@ -118,11 +160,53 @@ def load_object(path: str) -> Any:
     return getattr(importlib.import_module(module), name)
 
 
+def rows_of(arrays: State, rows: slice | np.ndarray) -> State:
+    """The rows ``rows`` of every array: views for a slice, copies for indices."""
+    return {name: value[rows] for name, value in arrays.items()}
+
+
+class RowReader:
+    """Reads row 0 of a batched (nested) info dict into a fresh dict: Python scalars from 1-d arrays, copies of
+    the row of others, Python scalars (constants) as they are. Built once over views that stay valid."""
+
+    def __init__(self, info: Mapping[str, Any]) -> None:
+        self.getters: list[tuple[str, Callable[[], Any]]] = []
+        for name, value in info.items():
+            if isinstance(value, Mapping):
+                self.getters.append((name, RowReader(value)))
+            elif not isinstance(value, np.ndarray):
+                self.getters.append((name, itertools.repeat(value).__next__))
+            elif value.ndim == 1:
+                self.getters.append((name, value[:1].item))
+            else:
+                self.getters.append((name, value[0].copy))
+
+    def __call__(self) -> Info:
+        return {name: get() for name, get in self.getters}
+
+
+def owned(state: State) -> State:
+    """``state`` with every array its own C-contiguous, writeable memory (copies of views, read-only or shared
+    arrays), since the front ends update states in place."""
+    seen: set[int] = set()
+    for name, value in state.items():
+        if id(value) in seen or value.base is not None or not value.flags.c_contiguous or not value.flags.writeable:
+            state[name] = value = np.array(value, order="C")
+        seen.add(id(value))
+    return state
+
+
+_ROW_0 = np.zeros(1, dtype=np.intp)
+"""The rows argument of a single env's :meth:`Task.start`."""
+
+
 class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
     """A Gymnasium env running a :class:`Task` on a batch of one.
 
     Subclasses set ``task_cls`` and a docstring; ``__init__(render_mode=None, **params)`` builds the frozen
     parameter dataclass, so every keyword lands in ``spec.kwargs`` and an unknown one raises ``TypeError``.
+    The state, output and observation arrays are allocated at the first reset and reused; what ``step`` and
+    ``reset`` return are fresh copies.
     """
 
     task_cls: ClassVar[type[Task]]
@@ -138,37 +222,51 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
         self.observation_space = self.task.observation_space
         self.action_space = self.task.action_space
         self.state: State | None = None
+        self._action = np.empty((1, *self.action_space.shape))
+        self._out = self.task.outputs(1)
+        self._read_info: RowReader | None = None
         self._renderer: Any = None
         self._window: Any = None
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, Info]:
         super().reset(seed=seed)
-        if seed is not None:
-            key = rng.seed_keys(np.array([seed]))
-        elif self.state is None:
-            key = self.np_random.integers(0, 2**64, size=1, dtype=np.uint64)
+        if self.state is None:
+            key = self.np_random.integers(0, 2**64, size=1, dtype=np.uint64) if seed is None else rng.seed_keys([seed])
+            self.state = owned({**self.task.initial_state(key), "key": key, "step": np.zeros(1, dtype=np.int64)})
+            self._read_info = RowReader(self.task.info(self.state, self._out))
         else:
-            key = rng.next_key(self.state["key"])
-        self.state = {**self.task.initial_state(key), "key": key, "step": np.zeros(1, dtype=np.int64)}
+            key = self.state["key"]
+            if seed is None:
+                rng.advance(key)
+            else:
+                key[:] = rng.seed_keys(np.array([seed]))
+            self.task.start(self.state, key, _ROW_0)
+            self.state["step"][0] = 0
         if self.render_mode is not None:
-            self._get_renderer().reset(self.state)
+            self._get_renderer().reset(self._snapshot())
             if self.render_mode == "human":
                 self.render()
-        return self.task.observe(self.state)[0], {}
+        obs = self._out["obs"]
+        self.task.observe(self.state, obs)
+        return obs[0].copy(), {}
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, Info]:
         if self.state is None:
             raise gym.error.ResetNeeded("Call reset() before step().")
-        a = check_actions(action, self.action_space, (1,))
-        transition = self.task.step(self.state, a)
-        self.state = {**transition.state, "key": self.state["key"], "step": self.state["step"] + 1}
-        info = first_of_batch(transition.info)
+        out = self._out
+        self.task.step(self.state, check_actions(action, self.action_space, self._action), out)
+        step = self.state["step"]
+        step[0] = step.item(0) + 1
+        info = self._read_info()  # type: ignore[misc]
         if self.render_mode is not None:
-            self._get_renderer().record(self.state, info)
+            self._get_renderer().record(self._snapshot(), info)
             if self.render_mode == "human":
                 self.render()
-        obs = self.task.observe(self.state)[0]
-        return obs, float(transition.reward[0]), bool(transition.terminated[0]), False, info
+        return out["obs"][0].copy(), out["reward"].item(0), out["terminated"].item(0), False, info
+
+    def _snapshot(self) -> State:
+        """A copy of the state for the renderer to keep (the env updates its own in place)."""
+        return {name: value.copy() for name, value in self.state.items()}  # type: ignore[union-attr]
 
     def render(self) -> np.ndarray | None:
         if self.render_mode is None:
@@ -201,13 +299,42 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
         state["_window"] = None
         return state
 
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        if self.state is not None:  # the info views must point into this copy's arrays
+            self._read_info = RowReader(self.task.info(self.state, self._out))
+
+
+def _core_count() -> int:
+    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+
+
+_pool: ThreadPoolExecutor | None = None
+
+
+def _in_chunks(n: int, run: Callable[[slice], None]) -> None:
+    """``run(rows)`` over row slices that cover ``range(n)``: one per CPU core on threads for large ``n``."""
+    global _pool
+    chunks = min(_core_count(), n // (PARALLEL_MIN_ENVS // 2)) if n >= PARALLEL_MIN_ENVS else 1
+    if chunks <= 1:
+        run(slice(0, n))
+        return
+    if _pool is None:
+        _pool = ThreadPoolExecutor(max_workers=_core_count(), thread_name_prefix="vegym")
+    bounds = [n * k // chunks for k in range(chunks + 1)]
+    futures = [_pool.submit(run, slice(bounds[k], bounds[k + 1])) for k in range(1, chunks)]
+    run(slice(bounds[0], bounds[1]))
+    for future in futures:
+        future.result()
+
 
 class VegymVectorEnv(VectorEnv, Generic[P]):
     """A native Gymnasium vector env running a :class:`Task` on ``num_envs`` episodes at once.
 
     NEXT_STEP autoreset: the step after a sub-env terminates or truncates resets it, returning its first
     observation with reward 0 and ``terminated = truncated = False``. Truncation comes from
-    ``max_episode_steps`` (``make_vec`` passes the registered value).
+    ``max_episode_steps`` (``make_vec`` passes the registered value). The state is updated in place; every
+    returned array is fresh and never written again.
     """
 
     task_cls: ClassVar[type[Task]]
@@ -233,6 +360,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         self.observation_space = batch_space(self.single_observation_space, num_envs)
         self.action_space = batch_space(self.single_action_space, num_envs)
         self.state: State | None = None
+        self._action = np.empty((num_envs, *self.single_action_space.shape))
         self._autoreset = np.zeros(num_envs, dtype=bool)
 
     def reset(
@@ -251,9 +379,11 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             keys = self.np_random.integers(0, 2**64, size=self.num_envs, dtype=np.uint64)
         else:
             keys = self._seed_keys(seed)
-        self.state = self._fresh(keys)
+        self.state = owned(
+            {**self.task.initial_state(keys), "key": keys, "step": np.zeros(self.num_envs, dtype=np.int64)}
+        )
         self._autoreset[:] = False
-        return self.task.observe(self.state), {}
+        return self._observe(), {}
 
     def _seed_keys(self, seed: int | list[int]) -> np.ndarray:
         if isinstance(seed, int):
@@ -269,58 +399,74 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         if self.state is None:
             raise gym.error.ResetNeeded("Call reset() without reset_mask before a masked reset.")
         keys = rng.next_key(self.state["key"][mask]) if seed is None else self._seed_keys(seed)[mask]
-        self.state = self._with_fresh_episodes(self.state, mask, keys)
+        self._start(np.flatnonzero(mask), keys)
         self._autoreset[mask] = False
-        return self.task.observe(self.state), {}
+        return self._observe(), {}
 
-    def _fresh(self, keys: np.ndarray) -> State:
-        return {**self.task.initial_state(keys), "key": keys, "step": np.zeros(len(keys), dtype=np.int64)}
+    def _start(self, rows: np.ndarray, keys: np.ndarray) -> None:
+        """Start the episodes of ``keys`` in the sub-envs ``rows`` (int indices), in place."""
+        state = self.state
+        assert state is not None
+        if len(rows) == self.num_envs:  # every sub-env (one-step episodes): in chunks, on views
+            every = np.arange(self.num_envs)
+            _in_chunks(self.num_envs, lambda r: self.task.start(rows_of(state, r), keys[r], every[: r.stop - r.start]))
+        else:
+            self.task.start(state, keys, rows)
+        state["key"][rows], state["step"][rows] = keys, 0
 
-    def _with_fresh_episodes(self, state: State, mask: np.ndarray, keys: np.ndarray) -> State:
-        """``state`` with the masked sub-envs starting the episodes of ``keys``; arrays are copied, never
-        written in place, since earlier states and returned infos may share them."""
-        fresh = self._fresh(keys)
-        out = dict(state)
-        if len(keys) == self.num_envs:  # every sub-env restarts: take the fresh arrays, nothing to merge
-            for k, v in fresh.items():
-                out[k] = v.astype(state[k].dtype, copy=False)
-            return out
-        rows = np.flatnonzero(mask)
-        for k, v in fresh.items():
-            merged = state[k].copy()
-            merged[rows] = v
-            out[k] = merged
-        return out
+    def _observe(self, obs: np.ndarray | None = None, rows: np.ndarray | None = None) -> np.ndarray:
+        """Observations of every sub-env, or only of ``rows`` (int indices) written into ``obs``."""
+        state = self.state
+        assert state is not None
+        if obs is None:
+            obs = np.empty((self.num_envs, *self.single_observation_space.shape), np.float32)
+        if rows is None or len(rows) == self.num_envs:
+            _in_chunks(self.num_envs, lambda r: self.task.observe(rows_of(state, r), obs[r]))
+        else:
+            some = np.empty((len(rows), *self.single_observation_space.shape), np.float32)
+            self.task.observe(rows_of(state, rows), some)
+            obs[rows] = some
+        return obs
 
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, Info]:
         """Step every sub-env; those that ended on the previous step start a new episode instead (NEXT_STEP).
 
         The task steps the whole batch (its randomness is a pure function of each episode's key, so the
-        discarded rows of resetting sub-envs draw nothing that others see); resetting rows are then replaced
-        by fresh episodes and report reward 0, not terminated, not truncated, and masked-out infos.
+        discarded rows of resetting sub-envs draw nothing that others see); resetting rows then start fresh
+        episodes and report reward 0, not terminated, not truncated, and masked-out infos.
         """
-        if self.state is None:
+        state = self.state
+        if state is None:
             raise gym.error.ResetNeeded("Call reset() before step().")
-        a = check_actions(actions, self.single_action_space, (self.num_envs,))
-        transition = self.task.step(self.state, a)
-        state = {**transition.state, "key": self.state["key"], "step": self.state["step"] + 1}
-        reward, terminated = transition.reward, transition.terminated
+        a = check_actions(actions, self.single_action_space, self._action)
+        out = self.task.outputs(self.num_envs)
+        _in_chunks(self.num_envs, lambda rows: self.task.step(rows_of(state, rows), a[rows], rows_of(out, rows)))
+        state["step"] += 1
+        reward, terminated = out["reward"], out["terminated"]
         resetting = self._autoreset
+        info = self._vector_info(self.task.info(state, out), ~resetting, {id(v) for v in state.values()})
         if resetting.any():
-            state = self._with_fresh_episodes(state, resetting, rng.next_key(self.state["key"][resetting]))
-            reward = np.where(resetting, 0.0, reward)
-            terminated = terminated & ~resetting
-        self.state = state
+            rows = np.flatnonzero(resetting)
+            self._start(rows, rng.next_key(state["key"][rows]))
+            reward[rows], terminated[rows] = 0.0, False
+            self._observe(out["obs"], rows)
         truncated = np.zeros(self.num_envs, dtype=bool)
         if self.max_episode_steps is not None:
             truncated = (state["step"] >= self.max_episode_steps) & ~resetting
         self._autoreset = terminated | truncated
-        obs = self.task.observe(state)
-        return obs, reward.astype(np.float64), terminated, truncated, self._vector_info(transition.info, ~resetting)
+        return out["obs"], reward, terminated, truncated, info
 
-    def _vector_info(self, info: Info, mask: np.ndarray) -> Info:
+    def _vector_info(self, info: Mapping[str, Any], mask: np.ndarray, state_ids: set[int]) -> Info:
+        """``info`` with Gymnasium's ``_name`` masks; arrays of (views of) the state, which later steps update in
+        place, copied."""
         out: Info = {}
-        for k, v in info.items():
-            out[k] = self._vector_info(v, mask) if isinstance(v, Mapping) else v
-            out[f"_{k}"] = mask
+        for name, value in info.items():
+            if isinstance(value, Mapping):
+                out[name] = self._vector_info(value, mask, state_ids)
+            elif not isinstance(value, np.ndarray):
+                out[name] = np.full(self.num_envs, value)
+            else:
+                shares_state = id(value) in state_ids or id(value.base) in state_ids
+                out[name] = value.copy() if shares_state else value
+            out[f"_{name}"] = mask
         return out

@@ -10,7 +10,7 @@ from gymnasium import spaces
 from numba import njit
 
 from vegym import rng
-from vegym.envs.base import State, Task, Transition, VegymEnv, VegymVectorEnv
+from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
 from vegym.params import Params, invalid, param
 from vegym.physics import collision
 
@@ -120,108 +120,159 @@ STEP_CONSTANTS = (
 """Parameters the kernels read, in the order of their constants array (SI units, radians; see the fields)."""
 
 
-@njit(cache=True)
-def _initial_kernel(keys: np.ndarray, c: np.ndarray, offset: np.uint64) -> tuple[np.ndarray, np.ndarray]:
-    """B's start and the target (n, 2) of fresh episodes, from 4 uniform lanes of each key's setup draw: distance
-    A-B, bearing of B, distance of the target from B and its bearing off the line A-B."""
+@njit(cache=True, nogil=True)
+def _start_kernel(
+    keys: np.ndarray,
+    rows: np.ndarray,
+    c: np.ndarray,
+    offset: np.uint64,
+    ball_a: np.ndarray,
+    ball_b: np.ndarray,
+    target: np.ndarray,
+) -> None:
+    """Fresh episodes of ``keys`` written in place into the rows ``rows`` of ``ball_a`` (the origin), ``ball_b``
+    and ``target`` ((n, 2), m), from 4 uniform lanes of each key's setup draw: distance A-B, bearing of B,
+    distance of the target from B and its bearing off the line A-B. ``c`` holds the parameters named in
+    ``STEP_CONSTANTS``."""
     target_distance_min, target_distance_max, ball_distance_min, ball_distance_max, bearing_max = (
         c[7], c[8], c[10], c[11], c[12]
     )  # fmt: skip
-    n = len(keys)
-    ball_b, target = np.empty((n, 2)), np.empty((n, 2))
-    for i in range(n):
-        base = rng.stream_base(keys[i], offset, np.uint64(0))
+    for j in range(len(keys)):
+        i = rows[j]
+        base = rng.stream_base(keys[j], offset, np.uint64(0))
         distance = ball_distance_min + (ball_distance_max - ball_distance_min) * rng.lane(base, 0)
         line = np.pi * (2.0 * rng.lane(base, 1) - 1.0)
         target_distance = target_distance_min + (target_distance_max - target_distance_min) * rng.lane(base, 2)
         leave = line + bearing_max * (2.0 * rng.lane(base, 3) - 1.0)
+        ball_a[i, 0], ball_a[i, 1] = 0.0, 0.0
         ball_b[i, 0], ball_b[i, 1] = distance * math.cos(line), distance * math.sin(line)
         target[i, 0] = ball_b[i, 0] + target_distance * math.cos(leave)
         target[i, 1] = ball_b[i, 1] + target_distance * math.sin(leave)
-    return ball_b, target
 
 
-@njit(cache=True)
-def _cut_kernel(ball_a: np.ndarray, ball_b: np.ndarray, action: np.ndarray, contact_distance: float) -> np.ndarray:
-    """Sine of the angle (n,) between A's strike and the line A-B: the cut offset over the distance A-B."""
-    out = np.empty(len(action))
+@njit(cache=True, nogil=True)
+def _cut_kernel(ball_a: np.ndarray, ball_b: np.ndarray, action: np.ndarray, c: np.ndarray, cut: np.ndarray) -> None:
+    """Sine of the angle between A's strike and the line A-B, the cut offset over the distance A-B, into ``cut``
+    (n,); ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
+    contact_distance = c[0]
     for i in range(len(action)):
         dx, dz = ball_b[i, 0] - ball_a[i, 0], ball_b[i, 1] - ball_a[i, 1]
-        out[i] = action[i, 0] * contact_distance / math.sqrt(dx * dx + dz * dz)
-    return out
+        cut[i] = action[i, 0] * contact_distance / math.sqrt(dx * dx + dz * dz)
 
 
-@njit(cache=True, error_model="numpy")
+SHOT_COLUMNS = (
+    "strike_velocity_x",
+    "strike_velocity_z",
+    "contact_point_x",
+    "contact_point_z",
+    "velocity_a_x",
+    "velocity_a_z",
+    "velocity_b_x",
+    "velocity_b_z",
+    "rest_a_x",
+    "rest_a_z",
+    "rest_b_x",
+    "rest_b_z",
+    "closing_speed",
+    "energy_lost",
+    "duration",
+    "miss_distance",
+    "miss_term",
+    "hit_term",
+)
+"""Columns of the step's ``shot`` output (SI units, vectors (x, z); see ``info`` in :class:`BilliardsEnv`)."""
+FLAG_COLUMNS = ("contact", "success")
+"""Columns of the step's ``flags`` output: A reached B, B rests on the target."""
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
 def _step_kernel(
-    action: np.ndarray, ball_a: np.ndarray, ball_b: np.ndarray, target: np.ndarray, turn: np.ndarray, c: np.ndarray
-) -> tuple[np.ndarray, ...]:
-    """One strike per episode, fused (the scalar kernels of :mod:`vegym.physics.collision`); ``turn``
-    (rad) is the strike's angle from the line A-B and ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
+    action: np.ndarray,
+    ball_a: np.ndarray,
+    ball_b: np.ndarray,
+    target: np.ndarray,
+    cut: np.ndarray,
+    c: np.ndarray,
+    shot: np.ndarray,
+    flags: np.ndarray,
+    reward: np.ndarray,
+    terminated: np.ndarray,
+    obs: np.ndarray,
+) -> None:
+    """One strike per episode, fused (the scalar kernels of :mod:`vegym.physics.collision`), and the next
+    observation, into the outputs: ``shot`` (n, 18) the ``SHOT_COLUMNS``, ``flags`` (n, 2) the ``FLAG_COLUMNS``,
+    ``reward``, ``terminated`` (every episode) and ``obs``. The state (the balls' and the target's start) is
+    unchanged. ``cut`` (rad) is the angle by which A's strike turns clockwise from the line A-B (``asin`` of
+    :func:`_cut_kernel`'s sine) and ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
     contact_distance, speed_max, deceleration, mass_a, mass_b, restitution = c[0], c[1], c[2], c[3], c[4], c[5]
     target_radius, target_distance_max, hit_bonus = c[6], c[8], c[9]
-    n = len(action)
-    vectors = np.empty((6, n, 2))  # strike velocity, contact point, velocity A, velocity B, rest A, rest B
-    out = np.empty((4, n))  # closing speed, energy lost, duration, miss distance
-    terms, reward = np.empty((2, n)), np.empty(n)
-    contact, hit = np.empty(n, np.bool_), np.empty(n, np.bool_)
     aim, strike, at_rest = np.empty(2), np.empty(2), np.zeros(2)  # A's direction and velocity, B's velocity
-    for i in range(n):
+    for i in range(len(action)):
         ax, az, bx, bz = ball_a[i, 0], ball_a[i, 1], ball_b[i, 0], ball_b[i, 1]
         ox, oz = bx - ax, bz - az
         distance = math.sqrt(ox * ox + oz * oz)
         along_x, along_z = ox / distance, oz / distance
-        cos_t, sin_t = math.cos(turn[i]), math.sin(turn[i])
+        turn = -cut[i]
+        cos_t, sin_t = math.cos(turn), math.sin(turn)
         aim_x, aim_z = cos_t * along_x + sin_t * -along_z, cos_t * along_z + sin_t * along_x
         speed = 0.5 * (action[i, 1] + 1.0) * speed_max
         stop = speed * speed / (2.0 * deceleration)
         aim[0], aim[1] = aim_x, aim_z
         travel = collision.first_contact_one(ball_a[i], aim, ball_b[i], contact_distance)
-        contact[i] = travel <= stop
+        contact = travel <= stop
         impact_speed = 0.0
-        if contact[i]:
+        if contact:
             impact_speed = collision.speed_after_one(speed, travel, deceleration)
         else:
             travel = stop
-        point, after_a, after_b = vectors[1, i], vectors[2, i], vectors[3, i]
+        row = shot[i]
+        point, after_a, after_b, rest_a, rest_b = row[2:4], row[4:6], row[6:8], row[8:10], row[10:12]
         point[0], point[1] = ax + travel * aim_x, az + travel * aim_z
         closing = impact_speed * (
             aim_x * ((bx - point[0]) / contact_distance) + aim_z * ((bz - point[1]) / contact_distance)
         )
         strike[0], strike[1] = impact_speed * aim_x, impact_speed * aim_z
         collision.impact_one(point, ball_b[i], strike, at_rest, mass_a, mass_b, restitution, after_a, after_b)
-        _, time_a = collision.slide_one(point, after_a, deceleration, vectors[4, i])
-        _, time_b = collision.slide_one(ball_b[i], after_b, deceleration, vectors[5, i])
-        rest_b_x, rest_b_z = vectors[5, i, 0], vectors[5, i, 1]
-        mx, mz = rest_b_x - target[i, 0], rest_b_z - target[i, 1]
+        _, time_a = collision.slide_one(point, after_a, deceleration, rest_a)
+        _, time_b = collision.slide_one(ball_b[i], after_b, deceleration, rest_b)
+        mx, mz = rest_b[0] - target[i, 0], rest_b[1] - target[i, 1]
         miss = math.sqrt(mx * mx + mz * mz)
-        hit[i] = miss <= target_radius
-        vectors[0, i, 0], vectors[0, i, 1] = speed * aim_x, speed * aim_z
-        out[0, i] = closing
-        out[1, i] = collision.energy_loss_one(closing, mass_a, mass_b, restitution)
-        out[2, i] = (speed - impact_speed) / deceleration + max(time_a, time_b)
-        out[3, i] = miss
-        terms[0, i] = -miss / target_distance_max
-        terms[1, i] = hit_bonus if hit[i] else 0.0
-        reward[i] = terms[0, i] + terms[1, i]
-    return vectors, out, terms, reward, contact, hit
+        hit = miss <= target_radius
+        miss_term, hit_term = -miss / target_distance_max, hit_bonus if hit else 0.0
+        row[0], row[1] = speed * aim_x, speed * aim_z
+        row[12] = closing
+        row[13] = collision.energy_loss_one(closing, mass_a, mass_b, restitution)
+        row[14] = (speed - impact_speed) / deceleration + max(time_a, time_b)
+        row[15], row[16], row[17] = miss, miss_term, hit_term
+        flags[i, 0], flags[i, 1] = contact, hit
+        reward[i] = miss_term + hit_term
+        terminated[i] = True
+        _observe_row(i, ball_a, ball_b, target, c, obs)
 
 
-@njit(cache=True)
-def _observe_kernel(ball_a: np.ndarray, ball_b: np.ndarray, target: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """Observations (n, 4) in the frame of the line A-B; ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
+@njit(cache=True, nogil=True)
+def _observe_row(
+    i: int, ball_a: np.ndarray, ball_b: np.ndarray, target: np.ndarray, c: np.ndarray, obs: np.ndarray
+) -> None:
+    """Observation of episode ``i`` into ``obs[i]``, in the frame of the line A-B; ``c`` holds the parameters
+    named in ``STEP_CONSTANTS``."""
     target_distance_max, ball_distance_max = c[8], c[11]
-    obs = np.empty((len(ball_a), 4), np.float32)
+    ox, oz = ball_b[i, 0] - ball_a[i, 0], ball_b[i, 1] - ball_a[i, 1]
+    distance = math.sqrt(ox * ox + oz * oz)
+    along_x, along_z = ox / distance, oz / distance
+    tx, tz = target[i, 0] - ball_b[i, 0], target[i, 1] - ball_b[i, 1]
+    target_distance = math.sqrt(tx * tx + tz * tz)
+    obs[i, 0] = distance / ball_distance_max
+    obs[i, 1] = target_distance / target_distance_max
+    obs[i, 2] = (tx * -along_z + tz * along_x) / target_distance
+    obs[i, 3] = (tx * along_x + tz * along_z) / target_distance
+
+
+@njit(cache=True, nogil=True)
+def _observe_kernel(ball_a: np.ndarray, ball_b: np.ndarray, target: np.ndarray, c: np.ndarray, obs: np.ndarray) -> None:
+    """Observations (n, 4) into ``obs`` (:func:`_observe_row`)."""
     for i in range(len(ball_a)):
-        ox, oz = ball_b[i, 0] - ball_a[i, 0], ball_b[i, 1] - ball_a[i, 1]
-        distance = math.sqrt(ox * ox + oz * oz)
-        along_x, along_z = ox / distance, oz / distance
-        tx, tz = target[i, 0] - ball_b[i, 0], target[i, 1] - ball_b[i, 1]
-        target_distance = math.sqrt(tx * tx + tz * tz)
-        obs[i, 0] = distance / ball_distance_max
-        obs[i, 1] = target_distance / target_distance_max
-        obs[i, 2] = (tx * -along_z + tz * along_x) / target_distance
-        obs[i, 3] = (tx * along_x + tz * along_z) / target_distance
-    return obs
+        _observe_row(i, ball_a, ball_b, target, c, obs)
 
 
 class BilliardsTask(Task[BilliardsParams]):
@@ -244,8 +295,13 @@ class BilliardsTask(Task[BilliardsParams]):
         return 1.0
 
     def initial_state(self, keys: np.ndarray) -> State:
-        ball_b, target = _initial_kernel(np.ascontiguousarray(keys, dtype=np.uint64), self._constants, self._offset)
-        return {"ball_a": np.zeros((len(keys), 2)), "ball_b": ball_b, "target": target}
+        n = len(keys)
+        state = {name: np.empty((n, 2)) for name in ("ball_a", "ball_b", "target")}
+        self.start(state, np.ascontiguousarray(keys, dtype=np.uint64), np.arange(n))
+        return state
+
+    def start(self, state: State, keys: np.ndarray, rows: np.ndarray) -> None:
+        _start_kernel(keys, rows, self._constants, self._offset, state["ball_a"], state["ball_b"], state["target"])
 
     @staticmethod
     def line_frame(state: State) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -258,37 +314,45 @@ class BilliardsTask(Task[BilliardsParams]):
         along = offset / distance[:, None]
         return distance, along, np.stack([-along[:, 1], along[:, 0]], axis=-1)
 
-    def step(self, state: State, action: np.ndarray) -> Transition:
-        p = self.params
-        a_start, b_start, target = state["ball_a"], state["ball_b"], state["target"]
-        turn = -np.arcsin(_cut_kernel(a_start, b_start, action, p.contact_distance))  # numpy's arcsin, not libm's
-        vectors, out, terms, reward, contact, hit = _step_kernel(
-            action, a_start, b_start, target, turn, self._constants
-        )
-        strike_velocity, contact_point, after_a, after_b, rest_a, rest_b = vectors
-        closing, energy_lost, duration, miss = out
-        info = {
-            "ball_a": a_start,
-            "ball_b": b_start,
-            "target": target,
-            "strike_velocity": strike_velocity,
-            "contact": contact,
-            "contact_point": contact_point,
-            "closing_speed": closing,
-            "velocity_a": after_a,
-            "velocity_b": after_b,
-            "energy_lost": energy_lost,
-            "rest_a": rest_a,
-            "rest_b": rest_b,
-            "duration": duration,
-            "miss_distance": miss,
-            "reward_terms": {"miss": terms[0], "hit": terms[1]},
-            "is_success": hit,
+    def output_shapes(self) -> dict[str, tuple[tuple[int, ...], type]]:
+        return {
+            "cut": ((), np.float64),
+            "shot": ((len(SHOT_COLUMNS),), np.float64),
+            "flags": ((len(FLAG_COLUMNS),), np.bool_),
         }
-        return Transition(dict(state), reward, np.ones(len(miss), dtype=bool), info)
 
-    def observe(self, state: State) -> np.ndarray:
-        return _observe_kernel(state["ball_a"], state["ball_b"], state["target"], self._constants)
+    def step(self, state: State, action: np.ndarray, out: State) -> None:
+        a, b, c, cut = state["ball_a"], state["ball_b"], self._constants, out["cut"]
+        _cut_kernel(a, b, action, c, cut)
+        np.arcsin(cut, cut)  # numpy's arcsin, not libm's: they differ by an ulp at times
+        _step_kernel(
+            action, a, b, state["target"], cut, c, out["shot"], out["flags"], out["reward"], out["terminated"],
+            out["obs"],
+        )  # fmt: skip
+
+    def info(self, state: State, out: State) -> Info:
+        shot, flags = out["shot"], out["flags"]
+        return {
+            "ball_a": state["ball_a"],
+            "ball_b": state["ball_b"],
+            "target": state["target"],
+            "strike_velocity": shot[:, 0:2],
+            "contact": flags[:, 0],
+            "contact_point": shot[:, 2:4],
+            "closing_speed": shot[:, 12],
+            "velocity_a": shot[:, 4:6],
+            "velocity_b": shot[:, 6:8],
+            "energy_lost": shot[:, 13],
+            "rest_a": shot[:, 8:10],
+            "rest_b": shot[:, 10:12],
+            "duration": shot[:, 14],
+            "miss_distance": shot[:, 15],
+            "reward_terms": {"miss": shot[:, 16], "hit": shot[:, 17]},
+            "is_success": flags[:, 1],
+        }
+
+    def observe(self, state: State, obs: np.ndarray) -> None:
+        _observe_kernel(state["ball_a"], state["ball_b"], state["target"], self._constants, obs)
 
 
 class BilliardsEnv(VegymEnv[BilliardsParams]):

@@ -9,7 +9,7 @@ from gymnasium import spaces
 from numba import njit
 
 from vegym import rng
-from vegym.envs.base import Task, Transition, VegymEnv, VegymVectorEnv
+from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
 from vegym.params import Params, invalid, param
 from vegym.physics import particle
 from vegym.physics.columns import pairwise_sum
@@ -78,7 +78,10 @@ STEP_CONSTANTS = (
     "target_ratio_max",
     "drop_speed",
 )
-"""Parameters the kernels read, in the order of their constants array (SI units, see the fields)."""
+"""Parameters the kernels read, in the order of their constants array (SI units, see the fields); the time of the
+first impact (s) follows them."""
+REWARD_TERMS = ("apex_error", "rest")
+"""Names of ``info["reward_terms"]``, in the order of the step kernel's ``terms`` columns."""
 
 
 @njit(cache=True)
@@ -110,7 +113,7 @@ def _targets_kernel(keys: np.ndarray, count: int, c: np.ndarray, offsets: np.nda
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _step_kernel(
     action: np.ndarray,
     speed: np.ndarray,
@@ -121,55 +124,95 @@ def _step_kernel(
     step: np.ndarray,
     c: np.ndarray,
     offsets: np.ndarray,
-) -> tuple[np.ndarray, ...]:
-    """One impact per episode, fused; ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
+    impact_speed: np.ndarray,
+    restitution: np.ndarray,
+    apex_height: np.ndarray,
+    target_height: np.ndarray,
+    terms: np.ndarray,
+    reward: np.ndarray,
+    success: np.ndarray,
+    terminated: np.ndarray,
+    obs: np.ndarray,
+) -> None:
+    """One impact per episode and the next observation, fused, in place on the state arrays (``speed`` to
+    ``error_sum``; ``keys`` and ``step``, the steps taken before this one, are read only) and into the outputs
+    (``impact_speed`` to ``obs``): the impact speed (m/s), restitution, apex (m) and target (m) of this bounce, the
+    reward terms (apex error, rest), reward, is_success and terminated (at rest); ``c`` holds the parameters named
+    in ``STEP_CONSTANTS``."""
     radius, gravity, rest_speed, height_scale, bounces_planned, success_error = c[0], c[1], c[2], c[3], c[4], c[5]
-    n, lookahead = len(action), targets.shape[1] - 1
-    out = np.empty((6, n))  # next speed, time, error sum, restitution, apex, target
-    new_targets, terms, reward = np.empty_like(targets), np.empty((2, n)), np.empty(n)
-    at_rest, success = np.empty(n, np.bool_), np.empty(n, np.bool_)
-    skipped = np.empty(int(bounces_planned))
-    for i in range(n):
+    lookahead = targets.shape[1] - 1
+    for i in range(len(action)):
         e = 0.5 * (action[i, 0] + 1.0)
-        rebound = -speed[i] - particle.normal_impulse_one(-speed[i], e)
-        at_rest[i] = rebound < rest_speed
-        if at_rest[i]:
+        v = speed[i]
+        rebound = -v - particle.normal_impulse_one(-v, e)
+        at_rest = rebound < rest_speed
+        if at_rest:
             rebound = 0.0
         apex = particle.apex_height_one(radius, rebound, gravity)
         flight = particle.ground_time_one(radius, rebound, radius, gravity)
-        error = abs(apex - targets[i, 0]) / height_scale
+        target = targets[i, 0]
+        error = abs(apex - target) / height_scale
         bounces = step[i] + 1
         rest_cost = 0.0
-        if at_rest[i]:  # charge every planned bounce skipped, as if at h = radius
+        if at_rest:  # charge every planned bounce skipped, as if at h = radius
+            skipped = np.empty(int(bounces_planned))
             _fill_targets(keys[i], skipped, c, offsets)
             for k in range(len(skipped)):
                 skipped[k] = skipped[k] - radius if k >= bounces else 0.0
             rest_cost = pairwise_sum(skipped) / height_scale
         errors = error_sum[i] + error + rest_cost
-        counted = max(bounces, bounces_planned) if at_rest[i] else bounces
+        counted = max(bounces, bounces_planned) if at_rest else bounces
         success[i] = errors / counted <= success_error
-        new_targets[i, :lookahead] = targets[i, 1:]
-        new_targets[i, lookahead] = _target(keys[i], step[i] + lookahead + 1, targets[i, lookahead], c, offsets)
-        out[0, i] = -particle.impact_velocity_one(radius, rebound, radius, gravity)
-        out[1, i] = time[i] + (0.0 if at_rest[i] else flight)
-        out[2, i], out[3, i], out[4, i], out[5, i] = errors, e, apex, targets[i, 0]
-        terms[0, i], terms[1, i] = -error, -rest_cost
+        last = targets[i, lookahead]
+        for k in range(lookahead):
+            targets[i, k] = targets[i, k + 1]
+        targets[i, lookahead] = _target(keys[i], step[i] + lookahead + 1, last, c, offsets)
+        speed[i] = -particle.impact_velocity_one(radius, rebound, radius, gravity)
+        time[i] = time[i] + (0.0 if at_rest else flight)
+        error_sum[i] = errors
+        impact_speed[i], restitution[i], apex_height[i], target_height[i] = v, e, apex, target
+        terms[i, 0], terms[i, 1] = -error, -rest_cost
         reward[i] = -error - rest_cost
-    return out, new_targets, terms, reward, at_rest, success
+        terminated[i] = at_rest
+        _observe_row(i, speed, targets, c, obs)
 
 
-@njit(cache=True)
-def _observe_kernel(speed: np.ndarray, targets: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """Observations (n, 3 + lookahead); ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
+@njit(cache=True, nogil=True)
+def _start_kernel(
+    keys: np.ndarray,
+    rows: np.ndarray,
+    speed: np.ndarray,
+    time: np.ndarray,
+    targets: np.ndarray,
+    error_sum: np.ndarray,
+    c: np.ndarray,
+    offsets: np.ndarray,
+) -> None:
+    """Fresh episodes of ``keys`` written in place into the rows ``rows`` of the state arrays (``speed`` to
+    ``error_sum``), as ``BouncingBallTask.initial_state`` draws them; ``c`` holds the parameters named in
+    ``STEP_CONSTANTS``, then the time of the first impact."""
+    for j in range(len(rows)):
+        r = rows[j]
+        speed[r], time[r], error_sum[r] = c[10], c[11], 0.0
+        _fill_targets(keys[j], targets[r], c, offsets)
+
+
+@njit(cache=True, nogil=True)
+def _observe_row(i: int, speed: np.ndarray, targets: np.ndarray, c: np.ndarray, obs: np.ndarray) -> None:
+    """Observation of episode ``i`` into ``obs[i]``; ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
     radius, height_scale, drop_speed = c[0], c[3], c[10]
-    n, m = targets.shape
-    obs = np.empty((n, 2 + m), np.float32)
-    for i in range(n):
-        v = speed[i] / drop_speed
-        obs[i, 0], obs[i, 1] = v, v * v
-        for k in range(m):
-            obs[i, 2 + k] = (targets[i, k] - radius) / height_scale
-    return obs
+    v = speed[i] / drop_speed
+    obs[i, 0], obs[i, 1] = v, v * v
+    for k in range(targets.shape[1]):
+        obs[i, 2 + k] = (targets[i, k] - radius) / height_scale
+
+
+@njit(cache=True, nogil=True)
+def _observe_kernel(speed: np.ndarray, targets: np.ndarray, c: np.ndarray, obs: np.ndarray) -> None:
+    """Observations (n, 3 + lookahead) written into ``obs``; ``c`` holds the parameters named in
+    ``STEP_CONSTANTS``."""
+    for i in range(len(speed)):
+        _observe_row(i, speed, targets, c, obs)
 
 
 class BouncingBallTask(Task[BouncingBallParams]):
@@ -183,11 +226,11 @@ class BouncingBallTask(Task[BouncingBallParams]):
         n_obs = 2 + params.lookahead + 1
         self.observation_space = spaces.Box(0.0, 1.0, (n_obs,), np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
-        self._constants = np.array([getattr(params, name) for name in STEP_CONSTANTS], dtype=np.float64)
+        first_time = float(particle.time_to_ground(params.drop_height, 0.0, params.radius, params.gravity))
+        self._constants = np.array([*(getattr(params, name) for name in STEP_CONSTANTS), first_time], np.float64)
         self._offsets = np.array(
             [rng.stream_offset(_FIRST_TARGET_STREAM), rng.stream_offset(_TARGET_RATIO_STREAM)], dtype=np.uint64
         )
-        self._first_time = float(particle.time_to_ground(params.drop_height, 0.0, params.radius, params.gravity))
 
     @property
     def control_rate(self) -> float:
@@ -197,38 +240,53 @@ class BouncingBallTask(Task[BouncingBallParams]):
         """The first ``count`` target apex heights (m) of each episode, shape (n, count)."""
         return _targets_kernel(np.ascontiguousarray(keys, dtype=np.uint64), count, self._constants, self._offsets)
 
-    def initial_state(self, keys: np.ndarray) -> dict[str, np.ndarray]:
+    def initial_state(self, keys: np.ndarray) -> State:
         p = self.params
         n = len(keys)
         return {
             "speed": np.full(n, p.drop_speed),
-            "time": np.full(n, self._first_time),
+            "time": np.full(n, self._constants[-1]),
             "targets": self.targets(keys, p.lookahead + 1),
             "error_sum": np.zeros(n),
         }
 
-    def step(self, state: dict[str, np.ndarray], action: np.ndarray) -> Transition:
-        p = self.params
-        out, targets, terms, reward, at_rest, success = _step_kernel(
-            action, state["speed"], state["time"], state["targets"], state["error_sum"], state["key"], state["step"],
-            self._constants, self._offsets,
+    def start(self, state: State, keys: np.ndarray, rows: np.ndarray) -> None:
+        _start_kernel(
+            keys, rows, state["speed"], state["time"], state["targets"], state["error_sum"], self._constants,
+            self._offsets,
         )  # fmt: skip
-        speed, time, error_sum, e, apex, target = out
-        new_state = {"speed": speed, "time": time, "targets": targets, "error_sum": error_sum}
-        info = {
-            "impact_speed": state["speed"],
-            "restitution": e,
-            "apex_height": apex,
-            "target_height": target,
-            "radius": np.full(len(speed), p.radius),
-            "gravity": np.full(len(speed), p.gravity),
-            "reward_terms": {"apex_error": terms[0], "rest": terms[1]},
-            "is_success": success,
-        }
-        return Transition(new_state, reward, at_rest, info)
 
-    def observe(self, state: dict[str, np.ndarray]) -> np.ndarray:
-        return _observe_kernel(state["speed"], state["targets"], self._constants)
+    def output_shapes(self) -> dict[str, tuple[tuple[int, ...], type]]:
+        return {
+            "impact_speed": ((), np.float64),
+            "restitution": ((), np.float64),
+            "apex_height": ((), np.float64),
+            "target_height": ((), np.float64),
+            "terms": ((len(REWARD_TERMS),), np.float64),
+            "success": ((), np.bool_),
+        }
+
+    def step(self, state: State, action: np.ndarray, out: State) -> None:
+        _step_kernel(
+            action, state["speed"], state["time"], state["targets"], state["error_sum"], state["key"], state["step"],
+            self._constants, self._offsets, out["impact_speed"], out["restitution"], out["apex_height"],
+            out["target_height"], out["terms"], out["reward"], out["success"], out["terminated"], out["obs"],
+        )  # fmt: skip
+
+    def info(self, state: State, out: State) -> Info:
+        return {
+            "impact_speed": out["impact_speed"],
+            "restitution": out["restitution"],
+            "apex_height": out["apex_height"],
+            "target_height": out["target_height"],
+            "radius": self.params.radius,
+            "gravity": self.params.gravity,
+            "reward_terms": dict(zip(REWARD_TERMS, out["terms"].T, strict=True)),
+            "is_success": out["success"],
+        }
+
+    def observe(self, state: State, obs: np.ndarray) -> None:
+        _observe_kernel(state["speed"], state["targets"], self._constants, obs)
 
 
 def optimal_apexes(targets: np.ndarray, start_apex: float, radius: float) -> np.ndarray:

@@ -10,7 +10,7 @@ from gymnasium import spaces
 from numba import njit
 
 from vegym import rng
-from vegym.envs.base import State, Task, Transition, VegymEnv, VegymVectorEnv
+from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
 from vegym.params import Params, invalid, param
 from vegym.physics import wheel
 
@@ -62,57 +62,105 @@ class GearTrainParams(Params):
 
 
 REWARD_TERMS = ("tracking", "effort")
-"""Names of ``info["reward_terms"]``, in the order of the step kernel's rows."""
+"""Names of ``info["reward_terms"]``, in the order of the step kernel's ``terms`` columns."""
+STEP_CONSTANTS = ("max_speed", "max_acceleration", "dt", "tracking_weight", "effort_weight", "tolerance", "ratio_max")
+"""Parameters the kernels read, in the order of their constants array (SI units, see the fields)."""
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
+def _target_one(key: np.uint64, step: int, interval_steps: int, target_offset: np.uint64) -> float:
+    """Target output angle (rad) in force during step ``step`` of the episode of ``key`` (as
+    :meth:`GearTrainTask.target`)."""
+    base = rng.stream_base(key, target_offset, np.uint64(step // interval_steps))
+    return np.pi * (2.0 * rng.lane(base, 0) - 1.0)
+
+
+@njit(cache=True, nogil=True)
 def _step_kernel(
     action: np.ndarray,
+    key: np.ndarray,
+    step: np.ndarray,
     speed: np.ndarray,
     radii: np.ndarray,
     angles: np.ndarray,
     gears: np.ndarray,
-    target: np.ndarray,
+    ratio: np.ndarray,
     c: np.ndarray,
-) -> tuple[np.ndarray, ...]:
-    """The whole step, fused per episode; ``c``: max speed, max acceleration, dt, tracking and effort weights,
-    tolerance (SI)."""
+    interval_steps: int,
+    target_offset: np.uint64,
+    target: np.ndarray,
+    output_speed: np.ndarray,
+    output: np.ndarray,
+    error: np.ndarray,
+    terms: np.ndarray,
+    reward: np.ndarray,
+    success: np.ndarray,
+    terminated: np.ndarray,
+    obs: np.ndarray,
+) -> None:
+    """The whole step and the next observation, fused per episode, in place on the state arrays (``speed``,
+    ``angles``) and into the outputs (``target``, the target of the step, to ``obs``); ``c`` holds the parameters
+    named in ``STEP_CONSTANTS``, in that order. The targets are drawn from the key's stream ``target_offset``, a
+    fresh one every ``interval_steps`` steps."""
     max_speed, max_acceleration, dt, tracking_weight, effort_weight, tolerance = c[0], c[1], c[2], c[3], c[4], c[5]
-    n, g = radii.shape
-    new_speed, new_angles, output_speed = np.empty(n), np.empty((n, g)), np.empty(n)
-    output, error = np.empty(n), np.empty(n)
-    terms, reward, success = np.empty((2, n)), np.empty(n), np.empty(n, np.bool_)
+    g = radii.shape[1]
     dv = max_acceleration * dt
-    for i in range(n):
+    for i in range(len(action)):
         v = min(max(max_speed * action[i, 0], speed[i] - dv), speed[i] + dv)
-        new_speed[i] = v
+        speed[i] = v
         gear_speed, last = v, gears[i] - 1
         for k in range(g):
             if k > 0:  # each mesh turns the next gear at -r_{k-1} / r_k times the speed (wheel.train_speeds)
                 gear_speed = gear_speed * -(radii[i, k - 1] / radii[i, k])
-            new_angles[i, k] = wheel.wrap_one(angles[i, k] + gear_speed * dt)
+            angles[i, k] = wheel.wrap_one(angles[i, k] + gear_speed * dt)
             if k == last:
                 output_speed[i] = gear_speed
-        output[i] = new_angles[i, last]
+        target[i] = _target_one(key[i], step[i], interval_steps, target_offset)
+        output[i] = angles[i, last]
         error[i] = wheel.wrap_one(target[i] - output[i])
-        terms[0, i] = -tracking_weight * dt * abs(error[i]) / np.pi
-        terms[1, i] = -effort_weight * dt * action[i, 0] ** 2
-        reward[i] = terms[0, i] + terms[1, i]
-        success[i] = abs(error[i]) <= tolerance
-    return new_speed, new_angles, output_speed, output, error, terms, reward, success
+        terms[i, 0] = -tracking_weight * dt * abs(error[i]) / np.pi
+        terms[i, 1] = -effort_weight * dt * action[i, 0] ** 2
+        reward[i] = terms[i, 0] + terms[i, 1]
+        success[i], terminated[i] = abs(error[i]) <= tolerance, False
+        next_target = _target_one(key[i], step[i] + 1, interval_steps, target_offset)
+        _observe_row(i, next_target, angles, gears, speed, ratio, c, obs)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
+def _observe_row(
+    i: int,
+    target: float,
+    angles: np.ndarray,
+    gears: np.ndarray,
+    speed: np.ndarray,
+    ratio: np.ndarray,
+    c: np.ndarray,
+    obs: np.ndarray,
+) -> None:
+    """Observation of episode ``i`` under the target angle ``target`` (rad) into ``obs[i]``; ``c`` holds the
+    parameters named in ``STEP_CONSTANTS``."""
+    error = target - angles[i, gears[i] - 1]
+    obs[i, 0], obs[i, 1] = math.sin(error), math.cos(error)
+    obs[i, 2], obs[i, 3] = speed[i] / c[0], ratio[i] / c[6]
+
+
+@njit(cache=True, nogil=True)
 def _observe_kernel(
-    target: np.ndarray, angles: np.ndarray, gears: np.ndarray, speed: np.ndarray, ratio: np.ndarray, c: np.ndarray
-) -> np.ndarray:
-    """Observations (n, 4); ``c``: max speed, ratio_max."""
-    obs = np.empty((len(speed), 4), np.float32)
-    for i in range(len(speed)):
-        error = target[i] - angles[i, gears[i] - 1]
-        obs[i, 0], obs[i, 1] = math.sin(error), math.cos(error)
-        obs[i, 2], obs[i, 3] = speed[i] / c[0], ratio[i] / c[1]
-    return obs
+    key: np.ndarray,
+    step: np.ndarray,
+    angles: np.ndarray,
+    gears: np.ndarray,
+    speed: np.ndarray,
+    ratio: np.ndarray,
+    c: np.ndarray,
+    interval_steps: int,
+    target_offset: np.uint64,
+    obs: np.ndarray,
+) -> None:
+    """Observations (n, 4) into ``obs``, against the targets in force at ``step``."""
+    for i in range(len(step)):
+        target = _target_one(key[i], step[i], interval_steps, target_offset)
+        _observe_row(i, target, angles, gears, speed, ratio, c, obs)
 
 
 class GearTrainTask(Task[GearTrainParams]):
@@ -125,17 +173,9 @@ class GearTrainTask(Task[GearTrainParams]):
         super().__init__(params)
         self.observation_space = spaces.Box(-1.0, 1.0, (4,), np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
-        self._constants = np.array(
-            [
-                params.max_speed,
-                params.max_acceleration,
-                params.dt,
-                params.tracking_weight,
-                params.effort_weight,
-                params.tolerance,
-            ]
-        )
-        self._observation_constants = np.array([params.max_speed, params.ratio_max])
+        self._constants = np.array([getattr(params, name) for name in STEP_CONSTANTS], dtype=np.float64)
+        self._interval_steps = params.interval_steps
+        self._target_offset = rng.stream_offset(_TARGET_STREAM)
 
     @property
     def control_rate(self) -> float:
@@ -143,7 +183,7 @@ class GearTrainTask(Task[GearTrainParams]):
 
     def target(self, keys: np.ndarray, step: np.ndarray) -> np.ndarray:
         """Target output angle (n,) in force during step ``step`` (n,): a fresh uniform draw in [-pi, pi) every
-        ``interval_steps`` steps, a pure function of the episode key."""
+        ``interval_steps`` steps, a pure function of the episode key (the kernels draw the same values)."""
         period = np.asarray(step) // self.params.interval_steps
         return np.pi * (2.0 * rng.uniform(keys, _TARGET_STREAM, 1, counter=period)[:, 0] - 1.0)
 
@@ -171,32 +211,43 @@ class GearTrainTask(Task[GearTrainParams]):
         """Angle (n,) of the output (last) gear, in [-pi, pi]."""
         return state["angles"][np.arange(len(state["gears"])), state["gears"] - 1]
 
-    def step(self, state: State, action: np.ndarray) -> Transition:
-        p = self.params
-        n = len(action)
-        target = self.target(state["key"], state["step"])
-        speed, angles, output_speed, output, error, terms, reward, success = _step_kernel(
-            action, state["speed"], state["radii"], state["angles"], state["gears"], target, self._constants
-        )
-        info = {
-            "input_speed": speed,
-            "output_speed": output_speed,
-            "output_angle": output,
-            "target_angle": target,
-            "error": error,
+    def output_shapes(self) -> dict[str, tuple[tuple[int, ...], type]]:
+        return {
+            "target": ((), np.float64),
+            "output_speed": ((), np.float64),
+            "output": ((), np.float64),
+            "error": ((), np.float64),
+            "terms": ((len(REWARD_TERMS),), np.float64),
+            "success": ((), np.bool_),
+        }
+
+    def step(self, state: State, action: np.ndarray, out: State) -> None:
+        _step_kernel(
+            action, state["key"], state["step"], state["speed"], state["radii"], state["angles"], state["gears"],
+            state["ratio"], self._constants, self._interval_steps, self._target_offset, out["target"],
+            out["output_speed"], out["output"], out["error"], out["terms"], out["reward"], out["success"],
+            out["terminated"], out["obs"],
+        )  # fmt: skip
+
+    def info(self, state: State, out: State) -> Info:
+        return {
+            "input_speed": state["speed"],
+            "output_speed": out["output_speed"],
+            "output_angle": out["output"],
+            "target_angle": out["target"],
+            "error": out["error"],
             "ratio": state["ratio"],
             "gears": state["gears"],
-            "dt": np.full(n, p.dt),
-            "reward_terms": dict(zip(REWARD_TERMS, terms, strict=True)),
-            "is_success": success,
+            "dt": self.params.dt,
+            "reward_terms": dict(zip(REWARD_TERMS, out["terms"].T, strict=True)),
+            "is_success": out["success"],
         }
-        return Transition({**state, "angles": angles, "speed": speed}, reward, np.zeros(n, dtype=bool), info)
 
-    def observe(self, state: State) -> np.ndarray:
-        target = self.target(state["key"], state["step"])
-        return _observe_kernel(
-            target, state["angles"], state["gears"], state["speed"], state["ratio"], self._observation_constants
-        )
+    def observe(self, state: State, obs: np.ndarray) -> None:
+        _observe_kernel(
+            state["key"], state["step"], state["angles"], state["gears"], state["speed"], state["ratio"],
+            self._constants, self._interval_steps, self._target_offset, obs,
+        )  # fmt: skip
 
 
 class GearTrainEnv(VegymEnv[GearTrainParams]):

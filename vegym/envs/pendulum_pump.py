@@ -10,7 +10,7 @@ from gymnasium import spaces
 from numba import njit
 
 from vegym import rng
-from vegym.envs.base import State, Task, Transition, VegymEnv, VegymVectorEnv
+from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
 from vegym.envs.schedule import ScheduledParams
 from vegym.params import Params, invalid, param
 from vegym.physics import pendulum
@@ -69,53 +69,92 @@ class PendulumPumpParams(ScheduledParams, Params):
 
 
 REWARD_TERMS = ("amplitude", "effort")
-"""Names of ``info["reward_terms"]``, in the order of the step kernel's rows."""
+"""Names of ``info["reward_terms"]``, in the order of the step kernel's ``terms`` columns."""
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _step_kernel(
-    action: np.ndarray, theta: np.ndarray, omega: np.ndarray, target: np.ndarray, c: np.ndarray
-) -> tuple[np.ndarray, ...]:
-    """The whole step, fused per episode; ``c``: see ``PendulumPumpTask._constants``."""
+    action: np.ndarray,
+    theta: np.ndarray,
+    omega: np.ndarray,
+    target: np.ndarray,
+    next_change: np.ndarray,
+    step: np.ndarray,
+    c: np.ndarray,
+    torque: np.ndarray,
+    energy: np.ndarray,
+    amplitude: np.ndarray,
+    target_amplitude: np.ndarray,
+    target_energy: np.ndarray,
+    terms: np.ndarray,
+    reward: np.ndarray,
+    success: np.ndarray,
+    terminated: np.ndarray,
+    obs: np.ndarray,
+) -> bool:
+    """The whole step but the target schedule, and the next observation, fused per episode, in place on ``theta``
+    (rad, wrapped to [-pi, pi)) and ``omega`` (rad/s) and into the outputs (``torque`` to ``obs``): the torque
+    (N m), energy (J), amplitude (rad), target amplitude (rad) and target energy (J) of this step, the reward
+    terms (amplitude, effort), reward, is_success and terminated (never). ``target``, ``next_change`` and
+    ``step`` (the steps taken before this one) are read only; ``c``: see ``PendulumPumpTask._constants``.
+    Returns whether a target change is due at this step in some episode, whose state and observation the caller
+    must then update (the observations written here show the target before the change)."""
     max_torque, dt, h, substeps = c[0], c[1], c[2], int(c[3])
     g_over_l, damping, inertia, weight_moment = c[4], c[5], c[6], c[7]
     effort_weight, success_tolerance = c[8], c[9]
-    n = len(action)
-    torque, new_theta, new_omega, energy, amplitude = np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n)
-    target_energy, terms, reward, success = np.empty(n), np.empty((2, n)), np.empty(n), np.empty(n, np.bool_)
-    for i in range(n):
+    changing = False
+    for i in range(len(action)):
         torque[i] = max_torque * action[i, 0]
         th, om = theta[i], omega[i]
         for _ in range(substeps):
             th, om = pendulum.swing(th, om, torque[i], h, g_over_l, damping, inertia)
         th = (th + np.pi) % (2.0 * np.pi) - np.pi
-        new_theta[i], new_omega[i] = th, om
+        theta[i], omega[i] = th, om
         energy[i] = pendulum.energy_of(th, om, inertia, weight_moment)
         amplitude[i] = pendulum.amplitude_of(energy[i], weight_moment)
+        target_amplitude[i] = target[i]
         target_energy[i] = pendulum.energy_of(target[i], 0.0, inertia, weight_moment)
         error = amplitude[i] - target[i]
-        terms[0, i] = -dt * abs(error) / np.pi
-        terms[1, i] = -effort_weight * dt * action[i, 0] ** 2
-        reward[i] = terms[0, i] + terms[1, i]
-        success[i] = abs(error) <= success_tolerance
-    return new_theta, new_omega, torque, energy, amplitude, target_energy, terms, reward, success
+        terms[i, 0] = -dt * abs(error) / np.pi
+        terms[i, 1] = -effort_weight * dt * action[i, 0] ** 2
+        reward[i] = terms[i, 0] + terms[i, 1]
+        success[i], terminated[i] = abs(error) <= success_tolerance, False
+        changing |= step[i] + 1 >= next_change[i]
+        _observe_row(i, theta, omega, target, c, obs)
+    return changing
 
 
-@njit(cache=True)
-def _observe_kernel(theta: np.ndarray, omega: np.ndarray, target: np.ndarray, c: np.ndarray) -> np.ndarray:
-    """Observations (n, 6); ``c``: see ``PendulumPumpTask._constants``."""
+@njit(cache=True, nogil=True)
+def _observe_row(
+    i: int, theta: np.ndarray, omega: np.ndarray, target: np.ndarray, c: np.ndarray, obs: np.ndarray
+) -> None:
+    """Observation of episode ``i`` into ``obs[i]``; ``c``: see ``PendulumPumpTask._constants``."""
     inertia, weight_moment, rate_scale = c[6], c[7], c[10]
-    obs = np.empty((len(theta), 6), np.float32)
+    energy = pendulum.energy_of(theta[i], omega[i], inertia, weight_moment)
+    target_energy = pendulum.energy_of(target[i], 0.0, inertia, weight_moment)
+    obs[i, 0] = math.sin(theta[i])
+    obs[i, 1] = math.cos(theta[i])
+    obs[i, 2] = min(max(omega[i] / rate_scale, -1.0), 1.0)
+    obs[i, 3] = target[i] / np.pi
+    obs[i, 4] = min(max((energy - target_energy) / (2.0 * weight_moment), -1.0), 1.0)
+    obs[i, 5] = (pendulum.amplitude_of(energy, weight_moment) - target[i]) / np.pi
+
+
+@njit(cache=True, nogil=True)
+def _observe_kernel(theta: np.ndarray, omega: np.ndarray, target: np.ndarray, c: np.ndarray, obs: np.ndarray) -> None:
+    """Observations (n, 6) written into ``obs``; ``c``: see ``PendulumPumpTask._constants``."""
     for i in range(len(theta)):
-        energy = pendulum.energy_of(theta[i], omega[i], inertia, weight_moment)
-        target_energy = pendulum.energy_of(target[i], 0.0, inertia, weight_moment)
-        obs[i, 0] = math.sin(theta[i])
-        obs[i, 1] = math.cos(theta[i])
-        obs[i, 2] = min(max(omega[i] / rate_scale, -1.0), 1.0)
-        obs[i, 3] = target[i] / np.pi
-        obs[i, 4] = min(max((energy - target_energy) / (2.0 * weight_moment), -1.0), 1.0)
-        obs[i, 5] = (pendulum.amplitude_of(energy, weight_moment) - target[i]) / np.pi
-    return obs
+        _observe_row(i, theta, omega, target, c, obs)
+
+
+@njit(cache=True, nogil=True)
+def _observe_rows_kernel(
+    rows: np.ndarray, theta: np.ndarray, omega: np.ndarray, target: np.ndarray, c: np.ndarray, obs: np.ndarray
+) -> None:
+    """Observations of the episodes ``rows`` (int indices) written into those rows of ``obs``; ``c``: see
+    ``PendulumPumpTask._constants``."""
+    for i in rows:
+        _observe_row(i, theta, omega, target, c, obs)
 
 
 class PendulumPumpTask(Task[PendulumPumpParams]):
@@ -170,34 +209,47 @@ class PendulumPumpTask(Task[PendulumPumpParams]):
             **self.schedule.initial(keys),
         }
 
-    def step(self, state: State, action: np.ndarray) -> Transition:
-        p = self.params
-        n = len(action)
-        theta, omega, torque, energy, amplitude, target_energy, terms, reward, success = _step_kernel(
-            action, state["theta"], state["omega"], state["target"], self._constants
-        )
-        new_state = {
-            **state,
-            "theta": theta,
-            "omega": omega,
-            **self.schedule.advance(state, state["step"] + 1, "target", self.draw_target),
+    def output_shapes(self) -> dict[str, tuple[tuple[int, ...], type]]:
+        return {
+            "torque": ((), np.float64),
+            "energy": ((), np.float64),
+            "amplitude": ((), np.float64),
+            "target_amplitude": ((), np.float64),
+            "target_energy": ((), np.float64),
+            "terms": ((len(REWARD_TERMS),), np.float64),
+            "success": ((), np.bool_),
         }
-        info = {
-            "angle": theta,
-            "angular_velocity": omega,
-            "torque": torque,
-            "energy": energy,
-            "amplitude": amplitude,
-            "target_amplitude": state["target"],
-            "target_energy": target_energy,
-            "dt": np.full(n, p.dt),
-            "reward_terms": dict(zip(REWARD_TERMS, terms, strict=True)),
-            "is_success": success,
-        }
-        return Transition(new_state, reward, np.zeros(n, dtype=bool), info)
 
-    def observe(self, state: State) -> np.ndarray:
-        return _observe_kernel(state["theta"], state["omega"], state["target"], self._constants)
+    def step(self, state: State, action: np.ndarray, out: State) -> None:
+        if _step_kernel(
+            action, state["theta"], state["omega"], state["target"], state["next_change"], state["step"],
+            self._constants, out["torque"], out["energy"], out["amplitude"], out["target_amplitude"],
+            out["target_energy"], out["terms"], out["reward"], out["success"], out["terminated"], out["obs"],
+        ):  # fmt: skip
+            self._change_targets(state, out["obs"])
+
+    def _change_targets(self, state: State, obs: np.ndarray) -> None:
+        """Hand out the new targets due at this step (``state["step"]`` not yet counted), in place, and observe the
+        episodes that changed again."""
+        changed = self.schedule.advance(state, state["step"] + 1, "target", self.draw_target)
+        _observe_rows_kernel(changed, state["theta"], state["omega"], state["target"], self._constants, obs)
+
+    def info(self, state: State, out: State) -> Info:
+        return {
+            "angle": state["theta"],
+            "angular_velocity": state["omega"],
+            "torque": out["torque"],
+            "energy": out["energy"],
+            "amplitude": out["amplitude"],
+            "target_amplitude": out["target_amplitude"],
+            "target_energy": out["target_energy"],
+            "dt": self.params.dt,
+            "reward_terms": dict(zip(REWARD_TERMS, out["terms"].T, strict=True)),
+            "is_success": out["success"],
+        }
+
+    def observe(self, state: State, obs: np.ndarray) -> None:
+        _observe_kernel(state["theta"], state["omega"], state["target"], self._constants, obs)
 
 
 class PendulumPumpEnv(VegymEnv[PendulumPumpParams]):

@@ -10,7 +10,7 @@ from gymnasium import spaces
 from numba import njit
 
 from vegym import rng
-from vegym.envs.base import Task, Transition, VegymEnv, VegymVectorEnv
+from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
 from vegym.params import Params, invalid, param
 from vegym.physics import projectile
 from vegym.physics.particle import STANDARD_GRAVITY
@@ -111,71 +111,142 @@ STEP_CONSTANTS = (
 """Parameters the kernels read, in the order of their constants array (SI units, radians; see the fields)."""
 
 
-@njit(cache=True)
-def _initial_kernel(keys: np.ndarray, c: np.ndarray, offset: np.uint64) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Launch positions, targets and winds (n, 3) of fresh episodes, from 5 uniform lanes of each key's setup draw:
-    launch height, target distance and bearing, wind speed and direction."""
-    n = len(keys)
-    launch, target, wind = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3))
-    for i in range(n):
-        base = rng.stream_base(keys[i], offset, np.uint64(0))
-        launch[i, 1] = c[0] + (c[1] - c[0]) * rng.lane(base, 0)
+SHOT_COLUMNS = ("velocity_x", "velocity_y", "velocity_z", "flight_time", "miss_distance", "miss_term", "hit_term")
+"""Columns of the step's ``shot`` output: the air-relative launch velocity (m/s), the flight time (s), the horizontal
+miss (m) and the reward terms ``miss`` and ``hit``."""
+
+
+@njit(cache=True, nogil=True)
+def _start_kernel(
+    keys: np.ndarray,
+    rows: np.ndarray,
+    c: np.ndarray,
+    offset: np.uint64,
+    launch: np.ndarray,
+    target: np.ndarray,
+    wind: np.ndarray,
+    landing: np.ndarray,
+    along: np.ndarray,
+    across: np.ndarray,
+) -> None:
+    """Fresh episodes of ``keys`` written in place into the rows ``rows`` of the state arrays ``launch`` to
+    ``landing`` ((n, 3), m and m/s; ``landing`` NaN: no shot yet), from 5 uniform lanes of each key's setup draw:
+    launch height, target distance and bearing, wind speed and direction. The target's offset from the launcher,
+    x and z (m), goes into ``along[j]`` and ``across[j]`` for its bearing (numpy's ``arctan2``, see
+    :meth:`ProjectileTask.target_bearing`). ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
+    for j in range(len(keys)):
+        i = rows[j]
+        base = rng.stream_base(keys[j], offset, np.uint64(0))
+        height = c[0] + (c[1] - c[0]) * rng.lane(base, 0)
         distance = c[2] + (c[3] - c[2]) * rng.lane(base, 1)
         bearing = np.pi * (2.0 * rng.lane(base, 2) - 1.0)
         wind_speed = c[4] * rng.lane(base, 3)
         wind_direction = np.pi * (2.0 * rng.lane(base, 4) - 1.0)
-        target[i, 0], target[i, 2] = distance * math.cos(bearing), distance * math.sin(bearing)
-        wind[i, 0], wind[i, 2] = wind_speed * math.cos(wind_direction), wind_speed * math.sin(wind_direction)
-    return launch, target, wind
+        launch[i, 0], launch[i, 1], launch[i, 2] = 0.0, height, 0.0
+        target[i, 0], target[i, 1], target[i, 2] = distance * math.cos(bearing), 0.0, distance * math.sin(bearing)
+        wind[i, 0], wind[i, 1] = wind_speed * math.cos(wind_direction), 0.0
+        wind[i, 2] = wind_speed * math.sin(wind_direction)
+        landing[i, 0], landing[i, 1], landing[i, 2] = np.nan, np.nan, np.nan
+        along[j], across[j] = target[i, 0] - launch[i, 0], target[i, 2] - launch[i, 2]
 
 
-@njit(cache=True)
-def _step_kernel(
-    action: np.ndarray, launch: np.ndarray, target: np.ndarray, wind: np.ndarray, bearing: np.ndarray, c: np.ndarray
-) -> tuple[np.ndarray, ...]:
-    """One shot per episode, fused; ``bearing`` is the target's (rad) and ``c`` holds the parameters named in
-    ``STEP_CONSTANTS``."""
+@njit(cache=True, nogil=True)
+def _scatter_kernel(rows: np.ndarray, values: np.ndarray, target: np.ndarray) -> None:
+    """``target[rows[j]] = values[j]``, in place."""
+    for j in range(len(rows)):
+        target[rows[j]] = values[j]
+
+
+@njit(cache=True, nogil=True)
+def _shot_row(
+    i: int,
+    action: np.ndarray,
+    launch: np.ndarray,
+    target: np.ndarray,
+    wind: np.ndarray,
+    bearing: np.ndarray,
+    landing: np.ndarray,
+    c: np.ndarray,
+    shot: np.ndarray,
+    success: np.ndarray,
+    reward: np.ndarray,
+) -> None:
+    """Episode ``i``'s shot: its landing point (m, centre at y = radius) into the state's ``landing[i]``, the
+    ``SHOT_COLUMNS`` into ``shot[i]``, the hit flag into ``success[i]`` and the reward into ``reward[i]``.
+    ``bearing`` is the target's (rad); ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
     target_distance_max, speed_min, speed_max, hit_radius, hit_bonus, gravity, radius = (
         c[3], c[5], c[6], c[7], c[8], c[9], c[10]
     )  # fmt: skip
-    n = len(action)
-    velocity, landing = np.empty((n, 3)), np.empty((n, 3))
-    out = np.empty((2, n))  # flight time, miss distance
-    terms, reward, hit = np.empty((2, n)), np.empty(n), np.empty(n, np.bool_)
-    for i in range(n):
-        speed = speed_min + 0.5 * (action[i, 2] + 1.0) * (speed_max - speed_min)
-        d = projectile.direction_one(ELEVATION_LIMIT * action[i, 0], bearing[i] + AZIMUTH_LIMIT * action[i, 1])
-        velocity[i, 0], velocity[i, 1], velocity[i, 2] = speed * d[0], speed * d[1], speed * d[2]
-        x, z, out[0, i] = projectile.landing_one(
-            (launch[i, 0], launch[i, 1], launch[i, 2]), (velocity[i, 0], velocity[i, 1], velocity[i, 2]),
-            (wind[i, 0], wind[i, 1], wind[i, 2]), gravity, radius,
-        )  # fmt: skip
-        landing[i, 0], landing[i, 1], landing[i, 2] = x, radius, z
-        miss = math.hypot(x - target[i, 0], z - target[i, 2])
-        out[1, i] = miss
-        hit[i] = miss <= hit_radius
-        terms[0, i] = -miss / target_distance_max
-        terms[1, i] = hit_bonus * (1.0 - (miss / hit_radius) ** 2) if hit[i] else 0.0
-        reward[i] = terms[0, i] + terms[1, i]
-    return velocity, landing, out, terms, reward, hit
+    speed = speed_min + 0.5 * (action[i, 2] + 1.0) * (speed_max - speed_min)
+    d = projectile.direction_one(ELEVATION_LIMIT * action[i, 0], bearing[i] + AZIMUTH_LIMIT * action[i, 1])
+    vx, vy, vz = speed * d[0], speed * d[1], speed * d[2]
+    x, z, flight_time = projectile.landing_one(
+        (launch[i, 0], launch[i, 1], launch[i, 2]), (vx, vy, vz), (wind[i, 0], wind[i, 1], wind[i, 2]), gravity,
+        radius,
+    )  # fmt: skip
+    landing[i, 0], landing[i, 1], landing[i, 2] = x, radius, z
+    miss = math.hypot(x - target[i, 0], z - target[i, 2])
+    hit = miss <= hit_radius
+    miss_term = -miss / target_distance_max
+    hit_term = hit_bonus * (1.0 - (miss / hit_radius) ** 2) if hit else 0.0
+    shot[i, 0], shot[i, 1], shot[i, 2], shot[i, 3], shot[i, 4] = vx, vy, vz, flight_time, miss
+    shot[i, 5], shot[i, 6] = miss_term, hit_term
+    success[i] = hit
+    reward[i] = miss_term + hit_term
 
 
-@njit(cache=True)
-def _observe_kernel(
-    launch: np.ndarray, target: np.ndarray, wind: np.ndarray, bearing: np.ndarray, c: np.ndarray
-) -> np.ndarray:
-    """Observations (n, 4) in the target frame (:meth:`ProjectileTask.target_frame`) of the target's ``bearing``
-    (rad); ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
+@njit(cache=True, nogil=True)
+def _step_kernel(
+    action: np.ndarray,
+    launch: np.ndarray,
+    target: np.ndarray,
+    wind: np.ndarray,
+    bearing: np.ndarray,
+    landing: np.ndarray,
+    c: np.ndarray,
+    shot: np.ndarray,
+    success: np.ndarray,
+    reward: np.ndarray,
+    terminated: np.ndarray,
+    obs: np.ndarray,
+) -> None:
+    """One shot per episode (:func:`_shot_row`) and the next observation, in place on the state's ``landing`` and
+    into the outputs (``shot`` to ``obs``); every episode terminates. ``c`` holds the parameters named in
+    ``STEP_CONSTANTS``."""
+    for i in range(len(action)):
+        _shot_row(i, action, launch, target, wind, bearing, landing, c, shot, success, reward)
+        terminated[i] = True
+        _observe_row(i, launch, target, wind, bearing, c, obs)
+
+
+@njit(cache=True, nogil=True)
+def _observe_row(
+    i: int,
+    launch: np.ndarray,
+    target: np.ndarray,
+    wind: np.ndarray,
+    bearing: np.ndarray,
+    c: np.ndarray,
+    obs: np.ndarray,
+) -> None:
+    """Observation of episode ``i`` into ``obs[i]``, in the target frame (:meth:`ProjectileTask.target_frame`) of
+    the target's ``bearing`` (rad); ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
     target_distance_max, height_scale, wind_scale = c[3], c[11], c[12]
-    obs = np.empty((len(launch), 4), np.float32)
-    for i in range(len(launch)):
-        dx, dz = target[i, 0] - launch[i, 0], target[i, 2] - launch[i, 2]
-        cos_b, sin_b = math.cos(bearing[i]), math.sin(bearing[i])
-        obs[i, 0] = math.hypot(dx, dz) / target_distance_max
-        obs[i, 1] = launch[i, 1] / height_scale
-        obs[i, 2] = (wind[i, 0] * cos_b + wind[i, 2] * sin_b) / wind_scale  # the wind is horizontal
-        obs[i, 3] = (wind[i, 0] * -sin_b + wind[i, 2] * cos_b) / wind_scale
-    return obs
+    dx, dz = target[i, 0] - launch[i, 0], target[i, 2] - launch[i, 2]
+    cos_b, sin_b = math.cos(bearing[i]), math.sin(bearing[i])
+    obs[i, 0] = math.hypot(dx, dz) / target_distance_max
+    obs[i, 1] = launch[i, 1] / height_scale
+    obs[i, 2] = (wind[i, 0] * cos_b + wind[i, 2] * sin_b) / wind_scale  # the wind is horizontal
+    obs[i, 3] = (wind[i, 0] * -sin_b + wind[i, 2] * cos_b) / wind_scale
+
+
+@njit(cache=True, nogil=True)
+def _observe_kernel(
+    launch: np.ndarray, target: np.ndarray, wind: np.ndarray, bearing: np.ndarray, c: np.ndarray, obs: np.ndarray
+) -> None:
+    """Observations (n, 4) into ``obs`` (:func:`_observe_row`)."""
+    for i in range(len(bearing)):
+        _observe_row(i, launch, target, wind, bearing, c, obs)
 
 
 class ProjectileTask(Task[ProjectileEnvParams]):
@@ -193,22 +264,31 @@ class ProjectileTask(Task[ProjectileEnvParams]):
         self.physics = params.physics
         self._constants = np.array([getattr(params, name) for name in STEP_CONSTANTS], dtype=np.float64)
         self._offset = rng.stream_offset(_SETUP_STREAM)
+        self._along, self._across = np.empty(1), np.empty(1)  # the single env's target offset (x, z), for start()
 
     @property
     def control_rate(self) -> float:
         return 1.0
 
-    def initial_state(self, keys: np.ndarray) -> dict[str, np.ndarray]:
-        launch_position, target, wind = _initial_kernel(
-            np.ascontiguousarray(keys, dtype=np.uint64), self._constants, self._offset
-        )
-        return {
-            "launch_position": launch_position,
-            "target": target,
-            "wind": wind,
-            "bearing": self.target_bearing(launch_position, target),
-            "landing_point": np.full((len(keys), 3), np.nan),
-        }
+    def initial_state(self, keys: np.ndarray) -> State:
+        n = len(keys)
+        state = {name: np.empty((n, 3)) for name in ("launch_position", "target", "wind", "landing_point")}
+        state["bearing"] = np.empty(n)
+        self.start(state, np.ascontiguousarray(keys, dtype=np.uint64), np.arange(n))
+        return state
+
+    def start(self, state: State, keys: np.ndarray, rows: np.ndarray) -> None:
+        bearing = state["bearing"]
+        single = len(keys) == len(bearing) == 1
+        along, across = (self._along, self._across) if single else (np.empty(len(keys)), np.empty(len(keys)))
+        _start_kernel(
+            keys, rows, self._constants, self._offset, state["launch_position"], state["target"], state["wind"],
+            state["landing_point"], along, across,
+        )  # fmt: skip
+        if single:  # row 0: the bearing straight into the state
+            np.arctan2(across, along, bearing)
+        else:
+            _scatter_kernel(rows, np.arctan2(across, along, along), bearing)
 
     @staticmethod
     def target_bearing(launch_position: np.ndarray, target: np.ndarray) -> np.ndarray:
@@ -217,7 +297,7 @@ class ProjectileTask(Task[ProjectileEnvParams]):
         return np.arctan2(target[:, 2] - launch_position[:, 2], target[:, 0] - launch_position[:, 0])
 
     @staticmethod
-    def target_frame(state: dict[str, np.ndarray]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    def target_frame(state: State) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Horizontal distance (n,), bearing (n,) and unit vectors (n, 3) along and across the line of fire.
 
         The bearing is the book azimuth of the target (from +x toward +z); "across" is the direction of
@@ -232,29 +312,34 @@ class ProjectileTask(Task[ProjectileEnvParams]):
         frame[1, ..., 0], frame[1, ..., 2] = -sin_b, cos_b
         return distance, bearing, frame
 
-    def step(self, state: dict[str, np.ndarray], action: np.ndarray) -> Transition:
-        p = self.params
-        velocity, landing, (flight_time, miss), terms, reward, hit = _step_kernel(
-            action, state["launch_position"], state["target"], state["wind"], state["bearing"], self._constants
-        )
-        info = {
-            "launch_position": state["launch_position"],
-            "launch_velocity": velocity,
-            "wind": state["wind"],
-            "gravity": np.full(len(miss), p.gravity),
-            "landing_point": landing,
-            "flight_time": flight_time,
-            "target": state["target"],
-            "miss_distance": miss,
-            "reward_terms": {"miss": terms[0], "hit": terms[1]},
-            "is_success": hit,
-        }
-        new_state = {**state, "landing_point": landing}
-        return Transition(new_state, reward, np.ones(len(miss), dtype=bool), info)
+    def output_shapes(self) -> dict[str, tuple[tuple[int, ...], type]]:
+        return {"shot": ((len(SHOT_COLUMNS),), np.float64), "success": ((), np.bool_)}
 
-    def observe(self, state: dict[str, np.ndarray]) -> np.ndarray:
-        return _observe_kernel(
-            state["launch_position"], state["target"], state["wind"], state["bearing"], self._constants
+    def step(self, state: State, action: np.ndarray, out: State) -> None:
+        _step_kernel(
+            action, state["launch_position"], state["target"], state["wind"], state["bearing"],
+            state["landing_point"], self._constants, out["shot"], out["success"], out["reward"], out["terminated"],
+            out["obs"],
+        )  # fmt: skip
+
+    def info(self, state: State, out: State) -> Info:
+        shot = out["shot"]
+        return {
+            "launch_position": state["launch_position"],
+            "launch_velocity": shot[:, 0:3],
+            "wind": state["wind"],
+            "gravity": self.params.gravity,
+            "landing_point": state["landing_point"],
+            "flight_time": shot[:, 3],
+            "target": state["target"],
+            "miss_distance": shot[:, 4],
+            "reward_terms": {"miss": shot[:, 5], "hit": shot[:, 6]},
+            "is_success": out["success"],
+        }
+
+    def observe(self, state: State, obs: np.ndarray) -> None:
+        _observe_kernel(
+            state["launch_position"], state["target"], state["wind"], state["bearing"], self._constants, obs
         )
 
 

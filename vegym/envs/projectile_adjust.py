@@ -9,13 +9,17 @@ import numpy as np
 from gymnasium import spaces
 from numba import njit
 
-from vegym.envs.base import State, Task, Transition, VegymEnv, VegymVectorEnv
-from vegym.envs.projectile import AZIMUTH_LIMIT, ELEVATION_LIMIT, ProjectileEnvParams, ProjectileTask
+from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
+from vegym.envs.projectile import AZIMUTH_LIMIT, ELEVATION_LIMIT, ProjectileEnvParams, ProjectileTask, _shot_row
+from vegym.envs.projectile import SHOT_COLUMNS as PROJECTILE_SHOT_COLUMNS
 from vegym.params import invalid, param
 from vegym.physics import projectile
 
 SHOT_FIELDS = 6
 """Observation entries per remembered shot: fired flag, miss along and across, and the shot's three actions."""
+SHOT_COLUMNS = (*PROJECTILE_SHOT_COLUMNS, "miss_along", "miss_across")
+"""Columns of the step's ``shot`` output: Projectile-v0's, then the miss (landing minus target, m) along and across
+the line of fire."""
 
 
 @dataclass(frozen=True)
@@ -54,33 +58,86 @@ class ProjectileAdjustParams(ProjectileEnvParams):
         return self.wind_speed_max * self.longest_flight
 
 
-@njit(cache=True)
-def _remember_kernel(
-    landing: np.ndarray,
+@njit(cache=True, nogil=True)
+def _step_kernel(
+    action: np.ndarray,
+    launch: np.ndarray,
     target: np.ndarray,
+    wind: np.ndarray,
     bearing: np.ndarray,
+    landing: np.ndarray,
     misses: np.ndarray,
     actions: np.ndarray,
-    action: np.ndarray,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The shot just fired pushed onto each episode's memory (most recent first): its miss (landing minus target,
-    m) along and across the line of fire of ``bearing`` (rad), and its action. Returns the miss (n, 2) and the new
-    ``misses`` and ``actions``."""
-    n = len(landing)
-    miss, new_misses, new_actions = np.empty((n, 2)), np.empty_like(misses), np.empty_like(actions)
-    for i in range(n):
+    shots: np.ndarray,
+    shot_c: np.ndarray,
+    c: np.ndarray,
+    shot: np.ndarray,
+    success: np.ndarray,
+    reward: np.ndarray,
+    terminated: np.ndarray,
+    obs: np.ndarray,
+) -> None:
+    """One shot per episode (Projectile-v0's, :func:`~vegym.envs.projectile._shot_row`, with ``shot_c`` its
+    constants) pushed onto the episode's memory (most recent first), and the next observation; in place on the
+    state arrays (``landing`` to ``shots``) and into the outputs (``shot`` to ``obs``; ``shot`` holds the
+    ``SHOT_COLUMNS``). The memory keeps the shot's miss (landing minus target, m) along and across the line of
+    fire of ``bearing`` (rad) and its action. ``c`` is as in :func:`_observe_row`."""
+    max_shots, memory = c[2], misses.shape[1]
+    for i in range(len(action)):
+        _shot_row(i, action, launch, target, wind, bearing, landing, shot_c, shot, success, reward)
         cos_b, sin_b = math.cos(bearing[i]), math.sin(bearing[i])
         dx, dy, dz = landing[i, 0] - target[i, 0], landing[i, 1] - target[i, 1], landing[i, 2] - target[i, 2]
-        miss[i, 0] = dx * cos_b + dy * 0.0 + dz * sin_b  # the frame's unit vectors are horizontal
-        miss[i, 1] = dx * -sin_b + dy * 0.0 + dz * cos_b
-        new_misses[i, 0] = miss[i]
-        new_misses[i, 1:] = misses[i, :-1]
-        new_actions[i, 0] = action[i]
-        new_actions[i, 1:] = actions[i, :-1]
-    return miss, new_misses, new_actions
+        along = dx * cos_b + dy * 0.0 + dz * sin_b  # the frame's unit vectors are horizontal
+        across = dx * -sin_b + dy * 0.0 + dz * cos_b
+        for k in range(memory - 1, 0, -1):
+            misses[i, k, 0], misses[i, k, 1] = misses[i, k - 1, 0], misses[i, k - 1, 1]
+            actions[i, k, 0], actions[i, k, 1], actions[i, k, 2] = (
+                actions[i, k - 1, 0], actions[i, k - 1, 1], actions[i, k - 1, 2]
+            )  # fmt: skip
+        misses[i, 0, 0], misses[i, 0, 1] = along, across
+        shot[i, -2], shot[i, -1] = along, across
+        actions[i, 0, 0], actions[i, 0, 1], actions[i, 0, 2] = action[i, 0], action[i, 1], action[i, 2]
+        shots[i] += 1
+        terminated[i] = success[i] or shots[i] >= max_shots
+        _observe_row(i, launch, target, misses, actions, shots, c, obs)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
+def _clear_kernel(rows: np.ndarray, misses: np.ndarray, actions: np.ndarray, shots: np.ndarray) -> None:
+    """Empty the shot memory of the rows ``rows``, in place."""
+    for j in range(len(rows)):
+        i = rows[j]
+        misses[i] = 0.0
+        actions[i] = 0.0
+        shots[i] = 0
+
+
+@njit(cache=True, nogil=True)
+def _observe_row(
+    i: int,
+    launch: np.ndarray,
+    target: np.ndarray,
+    misses: np.ndarray,
+    actions: np.ndarray,
+    shots: np.ndarray,
+    c: np.ndarray,
+    obs: np.ndarray,
+) -> None:
+    """Observation of episode ``i`` (3 + memory * SHOT_FIELDS) into ``obs[i]``; ``c = (target_distance_max,
+    height_scale, max_shots, miss_scale)``."""
+    target_distance_max, height_scale, max_shots, miss_scale = c[0], c[1], c[2], c[3]
+    obs[i, 0] = math.hypot(target[i, 0] - launch[i, 0], target[i, 2] - launch[i, 2]) / target_distance_max
+    obs[i, 1] = launch[i, 1] / height_scale
+    obs[i, 2] = shots[i] / max_shots
+    for k in range(misses.shape[1]):
+        j = 3 + k * SHOT_FIELDS
+        obs[i, j] = 1.0 if k < shots[i] else 0.0
+        obs[i, j + 1] = min(max(misses[i, k, 0] / miss_scale, -1.0), 1.0)
+        obs[i, j + 2] = min(max(misses[i, k, 1] / miss_scale, -1.0), 1.0)
+        obs[i, j + 3], obs[i, j + 4], obs[i, j + 5] = actions[i, k, 0], actions[i, k, 1], actions[i, k, 2]
+
+
+@njit(cache=True, nogil=True)
 def _observe_kernel(
     launch: np.ndarray,
     target: np.ndarray,
@@ -88,23 +145,11 @@ def _observe_kernel(
     actions: np.ndarray,
     shots: np.ndarray,
     c: np.ndarray,
-) -> np.ndarray:
-    """Observations (n, 3 + memory * SHOT_FIELDS); ``c = (target_distance_max, height_scale, max_shots,
-    miss_scale)``."""
-    target_distance_max, height_scale, max_shots, miss_scale = c[0], c[1], c[2], c[3]
-    n, memory = misses.shape[0], misses.shape[1]
-    obs = np.empty((n, 3 + memory * SHOT_FIELDS), np.float32)
-    for i in range(n):
-        obs[i, 0] = math.hypot(target[i, 0] - launch[i, 0], target[i, 2] - launch[i, 2]) / target_distance_max
-        obs[i, 1] = launch[i, 1] / height_scale
-        obs[i, 2] = shots[i] / max_shots
-        for k in range(memory):
-            j = 3 + k * SHOT_FIELDS
-            obs[i, j] = 1.0 if k < shots[i] else 0.0
-            obs[i, j + 1] = min(max(misses[i, k, 0] / miss_scale, -1.0), 1.0)
-            obs[i, j + 2] = min(max(misses[i, k, 1] / miss_scale, -1.0), 1.0)
-            obs[i, j + 3], obs[i, j + 4], obs[i, j + 5] = actions[i, k, 0], actions[i, k, 1], actions[i, k, 2]
-    return obs
+    obs: np.ndarray,
+) -> None:
+    """Observations (n, 3 + memory * SHOT_FIELDS) into ``obs`` (:func:`_observe_row`)."""
+    for i in range(len(shots)):
+        _observe_row(i, launch, target, misses, actions, shots, c, obs)
 
 
 class ProjectileAdjustTask(Task[ProjectileAdjustParams]):
@@ -120,6 +165,7 @@ class ProjectileAdjustTask(Task[ProjectileAdjustParams]):
         low = np.array([0.0, 0.0, 0.0, *slot_low * params.memory], np.float32)
         self.observation_space = spaces.Box(low, np.ones_like(low), dtype=np.float32)
         self.action_space = self.shot.action_space
+        self._shot_constants = self.shot._constants
         self._constants = np.array(
             [params.target_distance_max, params.height_scale, params.max_shots, params.miss_scale], dtype=np.float64
         )
@@ -137,22 +183,33 @@ class ProjectileAdjustTask(Task[ProjectileAdjustParams]):
             "shots": np.zeros(n, dtype=np.int64),
         }
 
-    def step(self, state: State, action: np.ndarray) -> Transition:
-        transition = self.shot.step(state, action)
-        info = transition.info
-        miss, misses, actions = _remember_kernel(
-            info["landing_point"], state["target"], state["bearing"], state["misses"], state["actions"], action
-        )
-        shots = state["shots"] + 1
-        new_state = {**transition.state, "misses": misses, "actions": actions, "shots": shots}
-        terminated = info["is_success"] | (shots >= self.params.max_shots)
-        info = {**info, "miss_along": miss[:, 0], "miss_across": miss[:, 1], "shots": shots}
-        return Transition(new_state, transition.reward, terminated, info)
+    def start(self, state: State, keys: np.ndarray, rows: np.ndarray) -> None:
+        self.shot.start(state, keys, rows)
+        _clear_kernel(rows, state["misses"], state["actions"], state["shots"])
 
-    def observe(self, state: State) -> np.ndarray:
-        return _observe_kernel(
+    def output_shapes(self) -> dict[str, tuple[tuple[int, ...], type]]:
+        return {"shot": ((len(SHOT_COLUMNS),), np.float64), "success": ((), np.bool_)}
+
+    def step(self, state: State, action: np.ndarray, out: State) -> None:
+        _step_kernel(
+            action, state["launch_position"], state["target"], state["wind"], state["bearing"],
+            state["landing_point"], state["misses"], state["actions"], state["shots"], self._shot_constants,
+            self._constants, out["shot"], out["success"], out["reward"], out["terminated"], out["obs"],
+        )  # fmt: skip
+
+    def info(self, state: State, out: State) -> Info:
+        shot = out["shot"]
+        return {
+            **self.shot.info(state, out),
+            "miss_along": shot[:, -2],
+            "miss_across": shot[:, -1],
+            "shots": state["shots"],
+        }
+
+    def observe(self, state: State, obs: np.ndarray) -> None:
+        _observe_kernel(
             state["launch_position"], state["target"], state["misses"], state["actions"], state["shots"],
-            self._constants,
+            self._constants, obs,
         )  # fmt: skip
 
 

@@ -64,19 +64,17 @@ class ChangeSchedule:
         now: np.ndarray,
         name: str,
         draw: Callable[[np.ndarray, np.ndarray], np.ndarray],
-    ) -> dict[str, np.ndarray]:
-        """State updates at step ``now`` (n,): where a change is due, demand ``state[name]`` becomes
-        ``draw(keys, index)`` and the schedule moves on. Arrays are copied, never written in place."""
-        changing = now >= state["next_change"]
-        if not changing.any():
-            return {}
-        keys, index, at = state["key"][changing], state["changes"][changing] + 1, now[changing]
-        updates = {k: state[k].copy() for k in (name, "changes", "last_change", "next_change")}
-        updates[name][changing] = draw(keys, index)
-        updates["changes"][changing] = index
-        updates["last_change"][changing] = at
-        updates["next_change"][changing] = self.next_change(keys, index, at)
-        return updates
+    ) -> np.ndarray:
+        """At step ``now`` (n,), in place: where a change is due, demand ``state[name]`` becomes
+        ``draw(keys, index)`` and the schedule moves on. Returns the rows (int indices) that changed."""
+        changing = np.flatnonzero(now >= state["next_change"])
+        if len(changing):
+            keys, index, at = state["key"][changing], state["changes"][changing] + 1, now[changing]
+            state[name][changing] = draw(keys, index)
+            state["changes"][changing] = index
+            state["last_change"][changing] = at
+            state["next_change"][changing] = self.next_change(keys, index, at)
+        return changing
 
 
 class ScheduledParams:

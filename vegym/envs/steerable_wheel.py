@@ -10,7 +10,7 @@ from gymnasium import spaces
 from numba import njit
 
 from vegym import rng
-from vegym.envs.base import State, Task, Transition, VegymEnv, VegymVectorEnv
+from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
 from vegym.params import Params, invalid, param
 from vegym.physics import wheel
 from vegym.physics.wheel import WheelParams
@@ -21,6 +21,7 @@ OBS_PER_WAYPOINT = 3
 SHOWN_WAYPOINTS = 2
 """The current waypoint and the one after it are observed."""
 REWARD_TERMS = ("progress", "waypoint", "time", "effort", "exit")
+"""Names of ``info["reward_terms"]``, in the order of the step kernel's ``terms`` columns."""
 STEP_CONSTANTS = (
     "max_speed",
     "max_acceleration",
@@ -34,9 +35,9 @@ STEP_CONSTANTS = (
     "time_penalty",
     "effort_penalty",
     "exit_penalty",
+    "diagonal",
 )
 """Parameters the step kernel reads, in the order of its constants array (SI units, see the fields)."""
-"""Names of ``info["reward_terms"]``, in the order of the step kernel's rows."""
 
 
 @dataclass(frozen=True)
@@ -109,7 +110,7 @@ def segment_distance(point: np.ndarray, start: np.ndarray, end: np.ndarray) -> n
     return _segment_distances(*(np.ascontiguousarray(a, dtype=np.float64) for a in (point, start, end)))
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _step_kernel(
     action: np.ndarray,
     position: np.ndarray,
@@ -119,24 +120,28 @@ def _step_kernel(
     waypoints: np.ndarray,
     index: np.ndarray,
     c: np.ndarray,
-) -> tuple[np.ndarray, ...]:
-    """The whole step, fused per episode; ``c`` holds the parameters named in ``STEP_CONSTANTS``, in that order."""
+    steer: np.ndarray,
+    terms: np.ndarray,
+    reward: np.ndarray,
+    success: np.ndarray,
+    terminated: np.ndarray,
+    obs: np.ndarray,
+) -> None:
+    """The whole step and the next observation, fused per episode, in place on the state arrays (``position`` to
+    ``index``) and into the outputs (``steer`` to ``obs``); ``c`` holds the parameters named in
+    ``STEP_CONSTANTS``, in that order."""
     max_speed, max_acceleration, dt, max_yaw_rate = c[0], c[1], c[2], c[3]
     radius, half_size, capture_radius = c[4], c[5], c[6]
     progress_weight, waypoint_bonus, time_penalty, effort_penalty, exit_penalty = c[7], c[8], c[9], c[10], c[11]
-    n, last = len(action), waypoints.shape[1] - 1
-    new_position, new_heading, new_roll = np.empty((n, 2)), np.empty(n), np.empty(n)
-    new_speed, steer, new_index = np.empty(n), np.empty(n), np.empty(n, np.int64)
-    terms, reward = np.empty((5, n)), np.empty(n)
-    success, terminated = np.empty(n, np.bool_), np.empty(n, np.bool_)
+    last = waypoints.shape[1] - 1
     dv = max_acceleration * dt
-    for i in range(n):
+    for i in range(len(action)):
         command = 0.5 * max_speed * (action[i, 0] + 1.0)
         v = min(max(command, speed[i] - dv), speed[i] + dv)
         yaw_rate = max_yaw_rate * action[i, 1]
         sx, sz = position[i, 0], position[i, 1]
-        ex, ez, new_heading[i], new_roll[i] = wheel.arc_step(sx, sz, heading[i], roll[i], v, yaw_rate, dt, radius)
-        k = index[i]
+        ex, ez, heading[i], roll[i] = wheel.arc_step(sx, sz, heading[i], roll[i], v, yaw_rate, dt, radius)
+        start = k = index[i]
         tx, tz = waypoints[i, min(k, last), 0], waypoints[i, min(k, last), 1]
         progress = math.hypot(tx - sx, tz - sz) - math.hypot(tx - ex, tz - ez)
         while (
@@ -146,47 +151,61 @@ def _step_kernel(
             k += 1
         done = k > last
         outside = (abs(ex) > half_size or abs(ez) > half_size) and not done
-        terms[0, i] = progress_weight * progress
-        terms[1, i] = waypoint_bonus * (k - index[i])
-        terms[2, i] = -time_penalty * dt
-        terms[3, i] = -effort_penalty * dt * action[i, 1] ** 2
-        terms[4, i] = -exit_penalty if outside else 0.0
-        reward[i] = terms[0, i] + terms[1, i] + terms[2, i] + terms[3, i] + terms[4, i]
-        new_position[i, 0], new_position[i, 1] = ex, ez
-        new_speed[i], steer[i], new_index[i] = v, yaw_rate * dt, k
+        terms[i, 0] = progress_weight * progress
+        terms[i, 1] = waypoint_bonus * (k - start)
+        terms[i, 2] = -time_penalty * dt
+        terms[i, 3] = -effort_penalty * dt * action[i, 1] ** 2
+        terms[i, 4] = -exit_penalty if outside else 0.0
+        reward[i] = terms[i, 0] + terms[i, 1] + terms[i, 2] + terms[i, 3] + terms[i, 4]
+        position[i, 0], position[i, 1] = ex, ez
+        speed[i], steer[i], index[i] = v, yaw_rate * dt, k
         success[i], terminated[i] = done, done or outside
-    return new_position, new_heading, new_roll, new_speed, steer, new_index, terms, reward, success, terminated
+        _observe_row(i, position, heading, speed, waypoints, index, c, obs)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
+def _observe_row(
+    i: int,
+    position: np.ndarray,
+    heading: np.ndarray,
+    speed: np.ndarray,
+    waypoints: np.ndarray,
+    index: np.ndarray,
+    c: np.ndarray,
+    obs: np.ndarray,
+) -> None:
+    """Observation of episode ``i`` into ``obs[i]``; ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
+    max_speed, diagonal = c[0], c[12]
+    n_waypoints = waypoints.shape[1]
+    sin_h, cos_h = math.sin(heading[i]), math.cos(heading[i])
+    for j in range(SHOWN_WAYPOINTS):
+        w = min(index[i] + j, n_waypoints - 1)
+        dx, dz = waypoints[i, w, 0] - position[i, 0], waypoints[i, w, 1] - position[i, 1]
+        ahead, leftward = dx * sin_h + dz * cos_h, dx * cos_h - dz * sin_h
+        distance = math.hypot(ahead, leftward)
+        column = OBS_PER_WAYPOINT * j
+        obs[i, column] = min(distance / diagonal, 1.0)
+        if distance > 0.0:
+            obs[i, column + 1] = min(max(leftward / distance, -1.0), 1.0)
+            obs[i, column + 2] = min(max(ahead / distance, -1.0), 1.0)
+        else:
+            obs[i, column + 1], obs[i, column + 2] = 0.0, 1.0
+    obs[i, -2] = speed[i] / max_speed
+    obs[i, -1] = index[i] / n_waypoints
+
+
+@njit(cache=True, nogil=True)
 def _observe_kernel(
     position: np.ndarray,
     heading: np.ndarray,
     speed: np.ndarray,
     waypoints: np.ndarray,
     index: np.ndarray,
-    diagonal: float,
-    max_speed: float,
-) -> np.ndarray:
-    n, n_waypoints = len(index), waypoints.shape[1]
-    obs = np.empty((n, OBS_PER_WAYPOINT * SHOWN_WAYPOINTS + 2), np.float32)
-    for i in range(n):
-        sin_h, cos_h = math.sin(heading[i]), math.cos(heading[i])
-        for j in range(SHOWN_WAYPOINTS):
-            w = min(index[i] + j, n_waypoints - 1)
-            dx, dz = waypoints[i, w, 0] - position[i, 0], waypoints[i, w, 1] - position[i, 1]
-            ahead, leftward = dx * sin_h + dz * cos_h, dx * cos_h - dz * sin_h
-            distance = math.hypot(ahead, leftward)
-            column = OBS_PER_WAYPOINT * j
-            obs[i, column] = min(distance / diagonal, 1.0)
-            if distance > 0.0:
-                obs[i, column + 1] = min(max(leftward / distance, -1.0), 1.0)
-                obs[i, column + 2] = min(max(ahead / distance, -1.0), 1.0)
-            else:
-                obs[i, column + 1], obs[i, column + 2] = 0.0, 1.0
-        obs[i, -2] = speed[i] / max_speed
-        obs[i, -1] = index[i] / n_waypoints
-    return obs
+    c: np.ndarray,
+    obs: np.ndarray,
+) -> None:
+    for i in range(len(index)):
+        _observe_row(i, position, heading, speed, waypoints, index, c, obs)
 
 
 class SteerableWheelTask(Task[SteerableWheelParams]):
@@ -222,33 +241,34 @@ class SteerableWheelTask(Task[SteerableWheelParams]):
             "index": np.zeros(n, dtype=np.int64),
         }
 
-    def step(self, state: State, action: np.ndarray) -> Transition:
-        p = self.params
-        position, heading, roll, speed, steer, index, terms, reward, success, terminated = _step_kernel(
-            action, state["position"], state["heading"], state["roll"], state["speed"], state["waypoints"],
-            state["index"], self._constants,
-        )  # fmt: skip
-        n = len(action)
-        new_state = {**state, "position": position, "heading": heading, "roll": roll, "speed": speed, "index": index}
-        info = {
-            "position": position,
-            "heading": heading,
-            "roll_angle": roll,
-            "speed": speed,
-            "steer_increment": steer,
-            "radius": np.full(n, p.radius),
-            "dt": np.full(n, p.dt),
-            "waypoint_index": index,
-            "reward_terms": dict(zip(REWARD_TERMS, terms, strict=True)),
-            "is_success": success,
-        }
-        return Transition(new_state, reward, terminated, info)
+    def output_shapes(self) -> dict[str, tuple[tuple[int, ...], type]]:
+        return {"steer": ((), np.float64), "terms": ((len(REWARD_TERMS),), np.float64), "success": ((), np.bool_)}
 
-    def observe(self, state: State) -> np.ndarray:
-        p = self.params
-        return _observe_kernel(
-            state["position"], state["heading"], state["speed"], state["waypoints"], state["index"], p.diagonal,
-            p.max_speed,
+    def step(self, state: State, action: np.ndarray, out: State) -> None:
+        _step_kernel(
+            action, state["position"], state["heading"], state["roll"], state["speed"], state["waypoints"],
+            state["index"], self._constants, out["steer"], out["terms"], out["reward"], out["success"],
+            out["terminated"], out["obs"],
+        )  # fmt: skip
+
+    def info(self, state: State, out: State) -> Info:
+        return {
+            "position": state["position"],
+            "heading": state["heading"],
+            "roll_angle": state["roll"],
+            "speed": state["speed"],
+            "steer_increment": out["steer"],
+            "radius": self.params.radius,
+            "dt": self.params.dt,
+            "waypoint_index": state["index"],
+            "reward_terms": dict(zip(REWARD_TERMS, out["terms"].T, strict=True)),
+            "is_success": out["success"],
+        }
+
+    def observe(self, state: State, obs: np.ndarray) -> None:
+        _observe_kernel(
+            state["position"], state["heading"], state["speed"], state["waypoints"], state["index"], self._constants,
+            obs,
         )  # fmt: skip
 
 

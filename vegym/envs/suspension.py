@@ -10,7 +10,7 @@ from gymnasium import spaces
 from numba import njit
 
 from vegym import rng
-from vegym.envs.base import State, Task, Transition, VegymEnv, VegymVectorEnv
+from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
 from vegym.params import Params, invalid, param
 from vegym.physics import suspension
 from vegym.physics.particle import STANDARD_GRAVITY
@@ -89,12 +89,16 @@ STEP_CONSTANTS = (
     "comfort_rms",
     "velocity_scale",
 )
-"""Parameters the kernels read, in the order of their constants array (SI units, see the fields)."""
+"""Parameters the kernels read, in the order of their constants array (SI units, see the fields); the spring's
+``(k, l, m, g)`` of ``suspension.body_step`` follow them."""
 REWARD_TERMS = ("comfort", "bump_stop")
-"""Names of ``info["reward_terms"]``, in the order of the step kernel's rows."""
+"""Names of ``info["reward_terms"]``, in the order of the step kernel's ``terms`` columns."""
+MEASURES = ("travel", "damping", "rms_acceleration")
+"""The info entries in the step kernel's ``measures`` columns: suspension travel (m), damper coefficient (N s/m),
+RMS body acceleration since the start (m/s^2)."""
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _step_kernel(
     action: np.ndarray,
     height: np.ndarray,
@@ -102,55 +106,72 @@ def _step_kernel(
     base: np.ndarray,
     base_velocity: np.ndarray,
     distance: np.ndarray,
+    acceleration: np.ndarray,
     squared_acceleration: np.ndarray,
     step: np.ndarray,
-    terrain: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray],
+    amplitude: np.ndarray,
+    wavenumber: np.ndarray,
+    phase: np.ndarray,
+    offset: np.ndarray,
     c: np.ndarray,
-    spring: tuple[float, float, float, float],
-) -> tuple[np.ndarray, ...]:
-    """The whole step, fused per episode; ``terrain = (amplitude, wavenumber, phase, offset)``, ``c`` holds the
-    parameters named in ``STEP_CONSTANTS`` and ``spring`` is ``suspension.body_step``'s."""
+    measures: np.ndarray,
+    terms: np.ndarray,
+    reward: np.ndarray,
+    success: np.ndarray,
+    terminated: np.ndarray,
+    obs: np.ndarray,
+) -> None:
+    """The whole step and the next observation, fused per episode, in place on the state arrays (``height`` to
+    ``squared_acceleration``; ``step``, the steps taken before this one, and the terrain ``amplitude`` to
+    ``offset`` are read only) and into the outputs (``measures`` to ``obs``): the columns of ``MEASURES``
+    (suspension travel (m), damper coefficient (N s/m), RMS body acceleration since the start (m/s^2)), the
+    reward terms (comfort, bump stop), reward, is_success and terminated (bump stop hit); ``c`` holds the
+    parameters named in ``STEP_CONSTANTS``, then the spring's ``(k, l, m, g)``."""
     damping_min, damping_max, dt, speed, static_length, travel_limit = c[0], c[1], c[2], c[3], c[4], c[5]
     episode_steps, accel_scale, bottom_out_penalty, comfort_rms = c[6], c[7], c[8], c[9]
-    amplitude, wavenumber, phase, offset = terrain
-    n = len(action)
-    out = np.empty((10, n))  # distance, height, velocity, base, base velocity, acceleration, squared, travel, c, rms
-    terms, reward = np.empty((2, n)), np.empty(n)
-    bottomed, success = np.empty(n, np.bool_), np.empty(n, np.bool_)
-    for i in range(n):
+    spring = (c[11], c[12], c[13], c[14])
+    for i in range(len(action)):
         damping = damping_min + 0.5 * (action[i, 0] + 1.0) * (damping_max - damping_min)
         y, v, a = suspension.body_step(height[i], velocity[i], base[i], base_velocity[i], damping, dt, 0.0, spring)
         x = distance[i] + speed * dt
         ground, slope = suspension.terrain_at(x, amplitude[i], wavenumber[i], phase[i])
         new_base = ground - offset[i]
         travel = y - new_base - static_length
-        bottomed[i] = abs(travel) > travel_limit
+        bottomed = abs(travel) > travel_limit
         squared = squared_acceleration[i] + dt * a * a
         rms = math.sqrt(squared / ((step[i] + 1) * dt))
         remaining = max(episode_steps - step[i] - 1, 0.0) * dt
-        terms[0, i] = -dt * min((a / accel_scale) ** 2, 1.0)
-        terms[1, i] = -(bottom_out_penalty + remaining) if bottomed[i] else 0.0
-        reward[i] = terms[0, i] + terms[1, i]
-        success[i] = not bottomed[i] and rms <= comfort_rms
-        out[0, i], out[1, i], out[2, i], out[3, i], out[4, i] = x, y, v, new_base, slope * speed
-        out[5, i], out[6, i], out[7, i], out[8, i], out[9, i] = a, squared, travel, damping, rms
-    return out, terms, reward, bottomed, success
+        terms[i, 0] = -dt * min((a / accel_scale) ** 2, 1.0)
+        terms[i, 1] = -(bottom_out_penalty + remaining) if bottomed else 0.0
+        reward[i] = terms[i, 0] + terms[i, 1]
+        success[i], terminated[i] = not bottomed and rms <= comfort_rms, bottomed
+        distance[i], height[i], velocity[i], base[i], base_velocity[i] = x, y, v, new_base, slope * speed
+        acceleration[i], squared_acceleration[i] = a, squared
+        measures[i, 0], measures[i, 1], measures[i, 2] = travel, damping, rms
+        _observe_row(i, height, velocity, base, base_velocity, acceleration, c, obs)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
+def _observe_row(
+    i: int, height: np.ndarray, velocity: np.ndarray, base: np.ndarray, base_velocity: np.ndarray,
+    acceleration: np.ndarray, c: np.ndarray, obs: np.ndarray,
+) -> None:  # fmt: skip
+    """Observation of episode ``i`` into ``obs[i]``; ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
+    static_length, travel_limit, accel_scale, velocity_scale = c[4], c[5], c[7], c[10]
+    obs[i, 0] = min(max((height[i] - base[i] - static_length) / travel_limit, -1.0), 1.0)
+    obs[i, 1] = min(max(velocity[i] / velocity_scale, -1.0), 1.0)
+    obs[i, 2] = min(max((velocity[i] - base_velocity[i]) / velocity_scale, -1.0), 1.0)
+    obs[i, 3] = min(max(acceleration[i] / accel_scale, -1.0), 1.0)
+
+
+@njit(cache=True, nogil=True)
 def _observe_kernel(
     height: np.ndarray, velocity: np.ndarray, base: np.ndarray, base_velocity: np.ndarray, acceleration: np.ndarray,
-    c: np.ndarray,
-) -> np.ndarray:  # fmt: skip
-    """Observations (n, 4); ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
-    static_length, travel_limit, accel_scale, velocity_scale = c[4], c[5], c[7], c[10]
-    obs = np.empty((len(height), 4), np.float32)
+    c: np.ndarray, obs: np.ndarray,
+) -> None:  # fmt: skip
+    """Observations (n, 4) written into ``obs``; ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
     for i in range(len(height)):
-        obs[i, 0] = min(max((height[i] - base[i] - static_length) / travel_limit, -1.0), 1.0)
-        obs[i, 1] = min(max(velocity[i] / velocity_scale, -1.0), 1.0)
-        obs[i, 2] = min(max((velocity[i] - base_velocity[i]) / velocity_scale, -1.0), 1.0)
-        obs[i, 3] = min(max(acceleration[i] / accel_scale, -1.0), 1.0)
-    return obs
+        _observe_row(i, height, velocity, base, base_velocity, acceleration, c, obs)
 
 
 class SuspensionTask(Task[SuspensionParams]):
@@ -165,8 +186,8 @@ class SuspensionTask(Task[SuspensionParams]):
         self.static_length = params.static_length
         self.observation_space = spaces.Box(-1.0, 1.0, (4,), np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
-        self._constants = np.array([getattr(params, name) for name in STEP_CONSTANTS], dtype=np.float64)
-        self._spring = (self.spring.stiffness, self.spring.natural_length, self.spring.mass, self.spring.gravity)
+        spring = (self.spring.stiffness, self.spring.natural_length, self.spring.mass, self.spring.gravity)
+        self._constants = np.array([*(getattr(params, name) for name in STEP_CONSTANTS), *spring], dtype=np.float64)
 
     @property
     def control_rate(self) -> float:
@@ -196,45 +217,42 @@ class SuspensionTask(Task[SuspensionParams]):
             "squared_acceleration": np.zeros(n),
         }
 
-    def step(self, state: State, action: np.ndarray) -> Transition:
-        p = self.params
-        n = len(action)
-        terrain = (state["amplitude"], state["wavenumber"], state["phase"], state["offset"])
-        out, terms, reward, bottomed, success = _step_kernel(
-            action, state["height"], state["velocity"], state["base"], state["base_velocity"], state["distance"],
-            state["squared_acceleration"], state["step"], terrain, self._constants, self._spring,
-        )  # fmt: skip
-        distance, height, velocity, base, base_velocity, acceleration, squared, travel, damping, rms = out
-        new_state = {
-            **state,
-            "distance": distance,
-            "height": height,
-            "velocity": velocity,
-            "base": base,
-            "base_velocity": base_velocity,
-            "acceleration": acceleration,
-            "squared_acceleration": squared,
+    def output_shapes(self) -> dict[str, tuple[tuple[int, ...], type]]:
+        return {
+            "measures": ((len(MEASURES),), np.float64),
+            "terms": ((len(REWARD_TERMS),), np.float64),
+            "success": ((), np.bool_),
         }
-        info = {
-            "body_height": height,
-            "body_velocity": velocity,
-            "body_acceleration": acceleration,
-            "base_height": base,
-            "base_velocity": base_velocity,
+
+    def step(self, state: State, action: np.ndarray, out: State) -> None:
+        _step_kernel(
+            action, state["height"], state["velocity"], state["base"], state["base_velocity"], state["distance"],
+            state["acceleration"], state["squared_acceleration"], state["step"], state["amplitude"],
+            state["wavenumber"], state["phase"], state["offset"], self._constants, out["measures"], out["terms"],
+            out["reward"], out["success"], out["terminated"], out["obs"],
+        )  # fmt: skip
+
+    def info(self, state: State, out: State) -> Info:
+        travel, damping, rms = out["measures"].T
+        return {
+            "body_height": state["height"],
+            "body_velocity": state["velocity"],
+            "body_acceleration": state["acceleration"],
+            "base_height": state["base"],
+            "base_velocity": state["base_velocity"],
             "travel": travel,
             "damping": damping,
-            "distance": distance,
+            "distance": state["distance"],
             "rms_acceleration": rms,
-            "dt": np.full(n, p.dt),
-            "reward_terms": dict(zip(REWARD_TERMS, terms, strict=True)),
-            "is_success": success,
+            "dt": self.params.dt,
+            "reward_terms": dict(zip(REWARD_TERMS, out["terms"].T, strict=True)),
+            "is_success": out["success"],
         }
-        return Transition(new_state, reward, bottomed, info)
 
-    def observe(self, state: State) -> np.ndarray:
-        return _observe_kernel(
+    def observe(self, state: State, obs: np.ndarray) -> None:
+        _observe_kernel(
             state["height"], state["velocity"], state["base"], state["base_velocity"], state["acceleration"],
-            self._constants,
+            self._constants, obs,
         )  # fmt: skip
 
 

@@ -9,7 +9,7 @@ from gymnasium import spaces
 from numba import njit
 
 from vegym import rng
-from vegym.envs.base import State, Task, Transition, VegymEnv, VegymVectorEnv
+from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
 from vegym.params import Params, invalid, param
 from vegym.physics import thread
 from vegym.physics.columns import pairwise_sum
@@ -84,51 +84,82 @@ STEP_CONSTANTS = ("max_force", "dt", "settle_fraction", "effort_weight", "pluck_
 """Parameters the kernels read, in the order of their constants array (SI units, see the fields)."""
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _step_kernel(
     action: np.ndarray,
     positions: np.ndarray,
     velocities: np.ndarray,
     initial_excess: np.ndarray,
+    excess: np.ndarray,
     actuated: np.ndarray,
     substeps: int,
     rest_energy: float,
+    equilibrium: np.ndarray,
     c: np.ndarray,
     physics: tuple[float, float, float, float, float, float],
-) -> tuple[np.ndarray, ...]:
-    """The whole step, fused per episode: ``substeps`` semi-implicit Euler steps of the thread (``thread.advance``)
-    under the actuator forces, then its energy; ``c`` holds the parameters named in ``STEP_CONSTANTS`` and
-    ``physics`` is ``ThreadParams.constants``."""
+    forces: np.ndarray,
+    energy: np.ndarray,
+    fraction: np.ndarray,
+    terms: np.ndarray,
+    reward: np.ndarray,
+    success: np.ndarray,
+    terminated: np.ndarray,
+    obs: np.ndarray,
+) -> None:
+    """The whole step and the next observation, fused per episode, in place on the state arrays (``positions``,
+    ``velocities``, ``excess``) and into the outputs (``forces`` to ``obs``): ``substeps`` semi-implicit Euler
+    steps of the thread (``thread.advance``) under the actuator forces (N), then its energy (J); ``c`` holds the
+    parameters named in ``STEP_CONSTANTS`` and ``physics`` is ``ThreadParams.constants``. The scratch buffers
+    are this call's own, so calls on different rows may run at once."""
     max_force, dt, settle_fraction, effort_weight = c[0], c[1], c[2], c[3]
-    n, n_nodes, n_actuators = len(action), positions.shape[1], len(actuated)
-    new_positions, new_velocities = positions.copy(), velocities.copy()
-    forces = np.empty((n, n_actuators, 2))
-    out = np.empty((3, n))  # energy, excess, fraction
-    terms, reward, settled = np.empty((2, n)), np.empty(n), np.empty(n, np.bool_)
+    n_nodes, n_actuators, n_actions = positions.shape[1], len(actuated), action.shape[1]
     applied, scratch = np.zeros((n_nodes, 2)), np.empty((n_nodes, 2))
-    buffer = np.empty(max(2 * n_nodes + 2, action.shape[1]))
+    buffer = np.empty(max(2 * n_nodes + 2, n_actions))
     h = dt / substeps
-    for i in range(n):
+    for i in range(len(action)):
         for k in range(n_actuators):
             forces[i, k, 0], forces[i, k, 1] = max_force * action[i, 2 * k], max_force * action[i, 2 * k + 1]
             applied[actuated[k], 0], applied[actuated[k], 1] = forces[i, k, 0], forces[i, k, 1]
         for _ in range(substeps):
-            thread.advance(new_positions[i], new_velocities[i], applied, h, physics, scratch)
-        energy = thread.energy_one(new_positions[i], new_velocities[i], physics, buffer)
-        excess = energy - rest_energy
-        fraction = excess / initial_excess[i]
-        settled[i] = fraction <= settle_fraction
-        squares = buffer[: action.shape[1]]
-        for k in range(action.shape[1]):
+            thread.advance(positions[i], velocities[i], applied, h, physics, scratch)
+        energy[i] = thread.energy_one(positions[i], velocities[i], physics, buffer)
+        excess[i] = energy[i] - rest_energy
+        fraction[i] = excess[i] / initial_excess[i]
+        settled = fraction[i] <= settle_fraction
+        squares = buffer[:n_actions]
+        for k in range(n_actions):
             squares[k] = action[i, k] * action[i, k]
-        terms[0, i] = -dt * fraction
-        terms[1, i] = -effort_weight * dt * (pairwise_sum(squares) / action.shape[1])
-        reward[i] = terms[0, i] + terms[1, i]
-        out[0, i], out[1, i], out[2, i] = energy, excess, fraction
-    return new_positions, new_velocities, forces, out, terms, reward, settled
+        terms[i, 0] = -dt * fraction[i]
+        terms[i, 1] = -effort_weight * dt * (pairwise_sum(squares) / n_actions)
+        reward[i] = terms[i, 0] + terms[i, 1]
+        success[i], terminated[i] = settled, settled
+        _observe_row(i, positions, velocities, excess, initial_excess, equilibrium, c, obs)
 
 
-@njit(cache=True)
+@njit(cache=True, nogil=True)
+def _observe_row(
+    i: int,
+    positions: np.ndarray,
+    velocities: np.ndarray,
+    excess: np.ndarray,
+    initial_excess: np.ndarray,
+    equilibrium: np.ndarray,
+    c: np.ndarray,
+    obs: np.ndarray,
+) -> None:
+    """Observation (4 N + 1) of episode ``i`` into ``obs[i]``; ``c`` holds the parameters named in
+    ``STEP_CONSTANTS``."""
+    pluck_max, velocity_scale = c[4], c[5]
+    n_nodes = positions.shape[1]
+    for j in range(n_nodes):
+        for k in range(2):
+            displacement = (positions[i, j, k] - equilibrium[j, k]) / pluck_max
+            obs[i, 2 * j + k] = min(max(displacement, -1.0), 1.0)
+            obs[i, 2 * n_nodes + 2 * j + k] = min(max(velocities[i, j, k] / velocity_scale, -1.0), 1.0)
+    obs[i, 4 * n_nodes] = min(max(excess[i] / initial_excess[i], 0.0), 1.0)
+
+
+@njit(cache=True, nogil=True)
 def _observe_kernel(
     positions: np.ndarray,
     velocities: np.ndarray,
@@ -136,19 +167,11 @@ def _observe_kernel(
     initial_excess: np.ndarray,
     equilibrium: np.ndarray,
     c: np.ndarray,
-) -> np.ndarray:
-    """Observations (n, 4 N + 1); ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
-    pluck_max, velocity_scale = c[4], c[5]
-    n, n_nodes = positions.shape[0], positions.shape[1]
-    obs = np.empty((n, 4 * n_nodes + 1), np.float32)
-    for i in range(n):
-        for j in range(n_nodes):
-            for k in range(2):
-                displacement = (positions[i, j, k] - equilibrium[j, k]) / pluck_max
-                obs[i, 2 * j + k] = min(max(displacement, -1.0), 1.0)
-                obs[i, 2 * n_nodes + 2 * j + k] = min(max(velocities[i, j, k] / velocity_scale, -1.0), 1.0)
-        obs[i, 4 * n_nodes] = min(max(excess[i] / initial_excess[i], 0.0), 1.0)
-    return obs
+    obs: np.ndarray,
+) -> None:
+    """Observations (n, 4 N + 1) into ``obs``; ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
+    for i in range(len(excess)):
+        _observe_row(i, positions, velocities, excess, initial_excess, equilibrium, c, obs)
 
 
 class ThreadTask(Task[ThreadEnvParams]):
@@ -172,6 +195,7 @@ class ThreadTask(Task[ThreadEnvParams]):
         self.observation_space = spaces.Box(low, np.ones(n_obs, np.float32), dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (2 * params.n_actuators,), np.float32)
         self._constants = np.array([getattr(params, name) for name in STEP_CONSTANTS], dtype=np.float64)
+        self._physics_constants = self.physics.constants
 
     @property
     def control_rate(self) -> float:
@@ -190,30 +214,41 @@ class ThreadTask(Task[ThreadEnvParams]):
         excess = thread.energy(positions, velocities, self.physics) - self.rest_energy
         return {"positions": positions, "velocities": velocities, "initial_excess": excess, "excess": excess}
 
-    def step(self, state: State, action: np.ndarray) -> Transition:
-        p = self.params
-        positions, velocities, forces, (energy, excess, fraction), terms, reward, settled = _step_kernel(
-            action, state["positions"], state["velocities"], state["initial_excess"], self.actuated, self.substeps,
-            self.rest_energy, self._constants, self.physics.constants,
-        )  # fmt: skip
-        new_state = {**state, "positions": positions, "velocities": velocities, "excess": excess}
-        info = {
-            "positions": positions,
-            "velocities": velocities,
-            "forces": forces,
-            "energy": energy,
-            "excess_energy": excess,
-            "energy_fraction": fraction,
-            "dt": np.full(len(action), p.dt),
-            "reward_terms": {"energy": terms[0], "effort": terms[1]},
-            "is_success": settled,
+    def output_shapes(self) -> dict[str, tuple[tuple[int, ...], type]]:
+        return {
+            "forces": ((self.params.n_actuators, 2), np.float64),
+            "energy": ((), np.float64),
+            "fraction": ((), np.float64),
+            "terms": ((2,), np.float64),
+            "success": ((), np.bool_),
         }
-        return Transition(new_state, reward, settled, info)
 
-    def observe(self, state: State) -> np.ndarray:
-        return _observe_kernel(
+    def step(self, state: State, action: np.ndarray, out: State) -> None:
+        _step_kernel(
+            action, state["positions"], state["velocities"], state["initial_excess"], state["excess"],
+            self.actuated, self.substeps, self.rest_energy, self.equilibrium, self._constants,
+            self._physics_constants, out["forces"], out["energy"], out["fraction"], out["terms"], out["reward"],
+            out["success"], out["terminated"], out["obs"],
+        )  # fmt: skip
+
+    def info(self, state: State, out: State) -> Info:
+        terms = out["terms"]
+        return {
+            "positions": state["positions"],
+            "velocities": state["velocities"],
+            "forces": out["forces"],
+            "energy": out["energy"],
+            "excess_energy": state["excess"],
+            "energy_fraction": out["fraction"],
+            "dt": self.params.dt,
+            "reward_terms": {"energy": terms[:, 0], "effort": terms[:, 1]},
+            "is_success": out["success"],
+        }
+
+    def observe(self, state: State, obs: np.ndarray) -> None:
+        _observe_kernel(
             state["positions"], state["velocities"], state["excess"], state["initial_excess"], self.equilibrium,
-            self._constants,
+            self._constants, obs,
         )  # fmt: skip
 
 
