@@ -2,8 +2,10 @@
 
 For each env: single-env steps/s through ``gymnasium.make`` (default wrappers), native vector env-steps/s at
 several batch sizes, the analytic controller's batched ``predict`` rate (observations/s) and the peak memory
-of the process. CartPole-v1 and its native ``CartPoleVectorEnv`` are measured with the same loops; ratios
-are vegym / CartPole. Run: ``python benchmarks/speed.py [--json] [--seconds S] [--envs ID ...]``.
+of the process. CartPole-v1 and its native ``CartPoleVectorEnv`` are measured with the same loops right before
+each vegym measurement, so every ratio (vegym / CartPole) compares rates taken seconds apart under the same load;
+the CartPole row of the table is the median of those measurements. Run:
+``python benchmarks/speed.py [--json] [--seconds S] [--envs ID ...]``.
 """
 
 from __future__ import annotations
@@ -11,6 +13,7 @@ from __future__ import annotations
 import argparse
 import json
 import resource
+import statistics
 import time
 from collections.abc import Callable
 
@@ -84,17 +87,25 @@ def predict_rate(env_id: str, num_envs: int, seconds: float) -> float:
     return rate(run, seconds) * num_envs
 
 
+def paired(measure_one: Callable[[str], float], env_id: str) -> tuple[float, float]:
+    """``measure_one`` of CartPole, then of ``env_id``, back to back."""
+    return measure_one(CARTPOLE), measure_one(env_id)
+
+
 def measure(env_ids: list[str], seconds: float) -> dict:
-    results: dict = {"cartpole": {}, "envs": {}}
-    results["cartpole"]["single"] = single_rate(CARTPOLE, seconds)
+    """Rates of every env and of CartPole measured right before each, by column."""
+    columns: dict[str, Callable[[str], float]] = {"single": lambda e: single_rate(e, seconds)}
     for n in VECTOR_SIZES:
-        results["cartpole"][f"vector_{n}"] = vector_rate(CARTPOLE, n, seconds)
+        columns[f"vector_{n}"] = lambda e, n=n: vector_rate(e, n, seconds)
+    results: dict = {"cartpole": {}, "envs": {}}
     for env_id in env_ids:
-        row = {"single": single_rate(env_id, seconds)}
-        for n in VECTOR_SIZES:
-            row[f"vector_{n}"] = vector_rate(env_id, n, seconds)
+        row: dict = {"cartpole": {}}
+        for column, measure_one in columns.items():
+            row["cartpole"][column], row[column] = paired(measure_one, env_id)
         row["predict_8192"] = predict_rate(env_id, 8192, seconds)
         results["envs"][env_id] = row
+    for column in columns:
+        results["cartpole"][column] = statistics.median(row["cartpole"][column] for row in results["envs"].values())
     results["peak_memory_mib"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     return results
 
@@ -104,11 +115,14 @@ def table(results: dict) -> str:
     columns = ["single", *(f"vector_{n}" for n in VECTOR_SIZES)]
     header = "| env | " + " | ".join(columns) + " | predict_8192 (obs/s) |"
     lines = [header, "|" + "---|" * (len(columns) + 2)]
-    lines.append(f"| {CARTPOLE} | " + " | ".join(f"{cart[c]:.3g}" for c in columns) + " | - |")
+    lines.append(f"| {CARTPOLE} (median) | " + " | ".join(f"{cart[c]:.3g}" for c in columns) + " | - |")
     for env_id, row in results["envs"].items():
-        cells = [f"{row[c]:.3g} ({row[c] / cart[c]:.2f}x)" for c in columns]
+        cells = [f"{row[c]:.3g} ({row[c] / row['cartpole'][c]:.2f}x)" for c in columns]
         lines.append(f"| {env_id} | " + " | ".join(cells) + f" | {row['predict_8192']:.3g} |")
-    lines.append(f"\nsteps/s (ratio to CartPole in the same run); peak memory {results['peak_memory_mib']:.0f} MiB")
+    lines.append(
+        "\nsteps/s (ratio to CartPole measured right before, same loop); "
+        f"peak memory {results['peak_memory_mib']:.0f} MiB"
+    )
     return "\n".join(lines)
 
 
