@@ -165,24 +165,29 @@ def rows_of(arrays: State, rows: slice | np.ndarray) -> State:
     return {name: value[rows] for name, value in arrays.items()}
 
 
-class RowReader:
-    """Reads row 0 of a batched (nested) info dict into a fresh dict: Python scalars from 1-d arrays, copies of
-    the row of others, Python scalars (constants) as they are. Built once over views that stay valid."""
+def row_reader(info: Mapping[str, Any]) -> Callable[[], Info]:
+    """A function that reads row 0 of the batched (nested) info dict ``info`` into a fresh dict: Python scalars
+    from 1-d arrays, copies of the row of others, Python scalars (constants) as they are. Built once over views
+    that stay valid; the reading is one generated dict display (no loop), since it runs on every single-env step."""
+    getters: list[Callable[[], Any]] = []
 
-    def __init__(self, info: Mapping[str, Any]) -> None:
-        self.getters: list[tuple[str, Callable[[], Any]]] = []
-        for name, value in info.items():
+    def display(tree: Mapping[str, Any]) -> str:
+        items = []
+        for name, value in tree.items():
             if isinstance(value, Mapping):
-                self.getters.append((name, RowReader(value)))
-            elif not isinstance(value, np.ndarray):
-                self.getters.append((name, itertools.repeat(value).__next__))
+                items.append(f"{name!r}: {display(value)}")
+                continue
+            if not isinstance(value, np.ndarray):
+                getters.append(itertools.repeat(value).__next__)
             elif value.ndim == 1:
-                self.getters.append((name, value[:1].item))
+                getters.append(value[:1].item)
             else:
-                self.getters.append((name, value[0].copy))
+                getters.append(value[0].copy)
+            items.append(f"{name!r}: g[{len(getters) - 1}]()")
+        return "{" + ", ".join(items) + "}"
 
-    def __call__(self) -> Info:
-        return {name: get() for name, get in self.getters}
+    source = display(info)
+    return eval(f"lambda g=g: {source}", {"g": tuple(getters)})  # noqa: S307
 
 
 def owned(state: State) -> State:
@@ -224,7 +229,7 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
         self.state: State | None = None
         self._action = np.empty((1, *self.action_space.shape))
         self._out = self.task.outputs(1)
-        self._read_info: RowReader | None = None
+        self._read_info: Callable[[], Info] | None = None
         self._renderer: Any = None
         self._window: Any = None
 
@@ -233,7 +238,7 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
         if self.state is None:
             key = self.np_random.integers(0, 2**64, size=1, dtype=np.uint64) if seed is None else rng.seed_keys([seed])
             self.state = owned({**self.task.initial_state(key), "key": key, "step": np.zeros(1, dtype=np.int64)})
-            self._read_info = RowReader(self.task.info(self.state, self._out))
+            self._read_info = row_reader(self.task.info(self.state, self._out))
         else:
             key = self.state["key"]
             if seed is None:
@@ -297,12 +302,13 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
     def __getstate__(self) -> dict[str, Any]:
         state = self.__dict__.copy()
         state["_window"] = None
+        state["_read_info"] = None  # rebuilt over the unpickled arrays
         return state
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
         if self.state is not None:  # the info views must point into this copy's arrays
-            self._read_info = RowReader(self.task.info(self.state, self._out))
+            self._read_info = row_reader(self.task.info(self.state, self._out))
 
 
 def _core_count() -> int:
