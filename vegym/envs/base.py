@@ -95,7 +95,9 @@ class Task(abc.ABC, Generic[P]):
     @abc.abstractmethod
     def step(self, state: State, action: np.ndarray, out: State) -> None:
         """Advance every episode of ``state`` in place by one step with actions (n, action_dim) in [-1, 1],
-        writing the results and the next observations into the arrays of ``out`` (from :meth:`outputs`)."""
+        writing the results and the next observations into the arrays of ``out`` (from :meth:`outputs`).
+        ``out["obs"]`` must show the state after all of the step, including any update made after the kernel
+        (a demand schedule's, say: those rows are observed again)."""
 
     @abc.abstractmethod
     def info(self, state: State, out: State) -> Info:
