@@ -119,6 +119,10 @@ STEP_CONSTANTS = (
     "max_speed",
     "vertical_speed_scale",
     "change_interval_max",
+    "floor_altitude",
+    "ceiling_altitude",
+    "wind_x",
+    "wind_z",
 )
 """Parameters the kernels read, in the order of their constants array (SI units, see the fields)."""
 REWARD_TERMS = ("altitude", "speed", "heading", "effort")
@@ -140,7 +144,6 @@ def _step_kernel(
     last_change: np.ndarray,
     next_change: np.ndarray,
     c: np.ndarray,
-    envelope: tuple[float, float, float, float, float, float],
     gust_offset: np.uint64,
     flown: np.ndarray,
     errors: np.ndarray,
@@ -157,6 +160,7 @@ def _step_kernel(
     at counter ``step``. Returns how many episodes have a demand change due at the new step (the caller advances
     the schedule and observes again then; ``obs`` shows the demand before the change)."""
     high = (c[0], c[2], c[4])  # A_acc, V_cli, M: the upper command limits and the scales of positive actions
+    envelope = (c[13], c[14], c[17], c[18], c[19], c[20])  # aircraft.envelope: speeds, floor, ceiling, wind
     low = (-c[1], -c[3], -c[4])
     dt, altitude_scale, speed_scale, effort_weight = c[5], c[6], c[7], c[8]
     altitude_tolerance, speed_tolerance, heading_tolerance, gust = c[9], c[10], c[11], c[12]
@@ -258,7 +262,6 @@ class AircraftTask(Task[AircraftEnvParams]):
         self.observation_space = spaces.Box(low, np.ones(8, np.float32), dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (3,), np.float32)
         self._constants = np.array([getattr(params, name) for name in STEP_CONSTANTS], dtype=np.float64)
-        self._envelope = aircraft.envelope(self.physics)
         self._gust_offset = rng.stream_offset(_GUST_STREAM)
 
     @property
@@ -313,7 +316,7 @@ class AircraftTask(Task[AircraftEnvParams]):
         due = _step_kernel(
             action, state["key"], state["step"], state["position"], state["speed"], state["heading"],
             state["command"], state["vertical_speed"], state["draft"], state["demand"], state["last_change"],
-            state["next_change"], self._constants, self._envelope, self._gust_offset, out["demand"], out["errors"],
+            state["next_change"], self._constants, self._gust_offset, out["demand"], out["errors"],
             out["terms"], out["reward"], out["success"], out["terminated"], out["obs"],
         )  # fmt: skip
         if due:  # a demand changes at the new step: advance the schedule, then observe the new demands
