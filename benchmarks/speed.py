@@ -3,8 +3,9 @@
 For each env: single-env steps/s through ``gymnasium.make`` (default wrappers), native vector env-steps/s at
 several batch sizes, the analytic controller's batched ``predict`` rate (observations/s) and the peak memory
 of the process. CartPole-v1 and its native ``CartPoleVectorEnv`` are measured with the same loops right before
-each vegym measurement, alternating three times (best of each), so every ratio (vegym / CartPole) compares rates
-taken seconds apart under the same load; the CartPole row of the table is the median of those measurements. Run:
+each vegym measurement, three times: a cell shows the env's best rate and the median ratio (vegym / CartPole) of
+the three back-to-back pairs, each pair taken seconds apart under the same load; the CartPole row is the median of
+CartPole's best rates beside every env. Run:
 ``python benchmarks/speed.py [--json] [--seconds S] [--envs ID ...]``.
 """
 
@@ -87,11 +88,15 @@ def predict_rate(env_id: str, num_envs: int, seconds: float) -> float:
     return rate(run, seconds) * num_envs
 
 
-def paired(measure_one: Callable[[str], float], env_id: str, rounds: int = 3) -> tuple[float, float]:
-    """The best ``measure_one`` of CartPole and of ``env_id`` over ``rounds`` alternations (CartPole, env, ...):
-    both see the same spells of load from other processes, which the best-of filters out."""
-    cartpole, env = zip(*((measure_one(CARTPOLE), measure_one(env_id)) for _ in range(rounds)), strict=True)
-    return max(cartpole), max(env)
+def paired(measure_one: Callable[[str], float], env_id: str, rounds: int = 3) -> tuple[float, float, float]:
+    """``rounds`` back-to-back pairs of ``measure_one`` (CartPole, then ``env_id``): the best CartPole rate, the
+    best env rate and the median of the pairs' ratios (each pair sees the same load from other processes)."""
+    pairs = [(measure_one(CARTPOLE), measure_one(env_id)) for _ in range(rounds)]
+    return (
+        max(c for c, _ in pairs),
+        max(e for _, e in pairs),
+        statistics.median(e / c for c, e in pairs),
+    )
 
 
 def measure(env_ids: list[str], seconds: float) -> dict:
@@ -101,9 +106,9 @@ def measure(env_ids: list[str], seconds: float) -> dict:
         columns[f"vector_{n}"] = lambda e, n=n: vector_rate(e, n, seconds)
     results: dict = {"cartpole": {}, "envs": {}}
     for env_id in env_ids:
-        row: dict = {"cartpole": {}}
+        row: dict = {"cartpole": {}, "ratio": {}}
         for column, measure_one in columns.items():
-            row["cartpole"][column], row[column] = paired(measure_one, env_id)
+            row["cartpole"][column], row[column], row["ratio"][column] = paired(measure_one, env_id)
         row["predict_8192"] = predict_rate(env_id, 8192, seconds)
         results["envs"][env_id] = row
     for column in columns:
@@ -119,10 +124,10 @@ def table(results: dict) -> str:
     lines = [header, "|" + "---|" * (len(columns) + 2)]
     lines.append(f"| {CARTPOLE} (median) | " + " | ".join(f"{cart[c]:.3g}" for c in columns) + " | - |")
     for env_id, row in results["envs"].items():
-        cells = [f"{row[c]:.3g} ({row[c] / row['cartpole'][c]:.2f}x)" for c in columns]
+        cells = [f"{row[c]:.3g} ({row['ratio'][c]:.2f}x)" for c in columns]
         lines.append(f"| {env_id} | " + " | ".join(cells) + f" | {row['predict_8192']:.3g} |")
     lines.append(
-        "\nsteps/s (ratio to CartPole measured right before, same loop); "
+        "\nsteps/s, best of three (median ratio of three back-to-back pairs with CartPole, same loop); "
         f"peak memory {results['peak_memory_mib']:.0f} MiB"
     )
     return "\n".join(lines)

@@ -5,7 +5,10 @@ from __future__ import annotations
 import copy
 import dataclasses
 import math
+import os
 import pickle
+import signal
+import time
 import warnings
 
 import gymnasium as gym
@@ -169,6 +172,74 @@ def test_threaded_chunks_step_exactly_as_one_chunk(env_id: str, monkeypatch: pyt
     monkeypatch.setattr(base, "PARALLEL_MIN_ENVS", 8)
     monkeypatch.setattr(base, "_core_count", lambda: 3)
     assert_same(one_chunk, run())
+    monkeypatch.setattr(base, "PARALLEL_MIN_ENVS", 2)  # chunks of a single row
+    monkeypatch.setattr(base, "_core_count", lambda: 64)
+    assert_same(one_chunk, run())
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_transition_is_the_env_step_as_a_pure_function(env_id: str) -> None:
+    env = gym.make(env_id)
+    env.reset(seed=9)
+    task = env.unwrapped.task
+    state = {name: value.copy() for name, value in env.unwrapped.state.items()}
+    for action in random_actions(env_id, 40, seed=10):
+        given = state
+        before = copy.deepcopy(given)
+        state, out, info = task.transition(given, action[None].astype(np.float64))
+        obs, reward, terminated, _, env_info = env.step(action)
+        for name, value in before.items():  # the argument is left as it was
+            np.testing.assert_array_equal(given[name], value)
+        assert_same((obs, reward, terminated), (out["obs"][0], out["reward"].item(0), out["terminated"].item(0)))
+        assert_same(env_info, base.row_reader(info)())
+        if terminated:
+            break
+
+
+def test_a_forked_child_steps_a_threaded_vector_env(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The thread pool does not survive a fork; the child must start its own instead of waiting forever."""
+    monkeypatch.setattr(base, "PARALLEL_MIN_ENVS", 8)
+    monkeypatch.setattr(base, "_core_count", lambda: 2)
+    vec = gym.make_vec("vegym/GearTrain-v0", num_envs=64, vectorization_mode="vector_entry_point")
+    vec.reset(seed=0)
+    actions = np.zeros((64, 1), np.float32)
+    vec.step(actions)
+    pid = os.fork()
+    if pid == 0:  # the child: step, then leave without running the parent's test teardown
+        vec.step(actions)
+        os._exit(0)
+    deadline = time.monotonic() + 60.0
+    while time.monotonic() < deadline:
+        done, status = os.waitpid(pid, os.WNOHANG)
+        if done:
+            assert os.waitstatus_to_exitcode(status) == 0
+            return
+        time.sleep(0.05)
+    os.kill(pid, signal.SIGKILL)
+    os.waitpid(pid, 0)
+    pytest.fail("the forked child hung on its first threaded step")
+
+
+def test_actions_of_any_numeric_dtype_are_taken_and_other_shapes_raise() -> None:
+    env = gym.make("vegym/SteerableWheel-v0")
+    env.reset(seed=0)
+    reference = copy.deepcopy(env)
+    expected = reference.step(np.array([0.5, -0.25]))
+    for action in (
+        np.array([0.5, -0.25], np.float32),
+        np.array([0.5, -0.25], np.float16),
+        np.array([0.5, -0.25], ">f8"),
+        np.array([[0.5, -0.25]]),
+        [0.5, -0.25],
+    ):
+        assert_same(copy.deepcopy(env).step(action), expected)
+    for bad in (np.zeros(3), np.zeros((2, 1)), np.array(["a", "b"])):
+        with pytest.raises(ValueError, match="action"):
+            env.step(bad)
+    vec = gym.make_vec("vegym/SteerableWheel-v0", num_envs=3, vectorization_mode="vector_entry_point")
+    vec.reset(seed=0)
+    with pytest.raises(ValueError, match="shape"):
+        vec.step(np.zeros((2, 3)))  # transposed: the same number of values, in the wrong layout
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)

@@ -37,9 +37,9 @@ Info = dict[str, Any]
 ACTION_TOLERANCE = 1e-6
 """Actions may exceed [-1, 1] by this much (float32 round-off) and are then clipped; more is an error."""
 PARALLEL_MIN_ENVS = 4096
-"""Vector envs with at least this many sub-envs step and observe in one chunk per CPU core, on threads (the
-kernels release the GIL); smaller batches run in the calling thread, where threads would cost more than they
-save."""
+"""Vector envs with at least this many sub-envs step, observe and restart in chunks of at least half this many
+rows, at most one per CPU core, on threads (the kernels release the GIL); smaller batches run in the calling
+thread, where threads would cost more than they save."""
 
 
 class Task(abc.ABC, Generic[P]):
@@ -47,8 +47,8 @@ class Task(abc.ABC, Generic[P]):
 
     Subclasses set ``params_cls``, build ``observation_space`` and ``action_space`` (single-env spaces) in
     ``__init__``, and implement the methods below. ``state`` dicts always carry ``key`` (uint64 episode keys)
-    and ``step`` (steps taken in the episode), maintained by the front ends. ``step`` and ``observe`` must work
-    on any row slice of the state (the vector env hands them chunks of its arrays).
+    and ``step`` (steps taken in the episode), maintained by the front ends. ``step``, ``observe`` and ``start``
+    must work on any row slice of the state (the vector env hands them chunks of its arrays, concurrently).
     """
 
     params_cls: ClassVar[type[Params]]
@@ -68,11 +68,12 @@ class Task(abc.ABC, Generic[P]):
 
     @abc.abstractmethod
     def initial_state(self, keys: np.ndarray) -> State:
-        """Fresh episode states for the episode keys ``keys`` (n,), drawing randomness from them only."""
+        """Fresh episode states for the episode keys ``keys`` (n,), drawing randomness from them only. Arrays may
+        share memory; whoever steps the state passes it through :func:`owned` first (the front ends do)."""
 
     def start(self, state: State, keys: np.ndarray, rows: np.ndarray) -> None:
         """Start the episodes of ``keys`` in the rows ``rows`` (int indices) of ``state``, in place (``key`` and
-        ``step`` are the front end's). Tasks whose episodes are one step long override it with a kernel."""
+        ``step`` are the front end's). Tasks that restart often (short episodes) override it with a kernel."""
         for name, value in self.initial_state(keys).items():
             state[name][rows] = value
 
@@ -110,11 +111,13 @@ class Task(abc.ABC, Generic[P]):
 
     def transition(self, state: State, action: np.ndarray) -> tuple[State, State, Info]:
         """One step as a pure function, for tests and analysis (the envs step in place): a copy of ``state``
-        advanced by ``action`` (n, action_dim), the step's outputs (``reward``, ``terminated``, ``obs``, ...)
-        and its info; ``state`` is left as it was."""
+        advanced by ``action`` (n, action_dim) with its ``step`` counted (if it has one), the step's outputs
+        (``reward``, ``terminated``, ``obs``, ...) and its info; ``state`` is left as it was."""
         after = owned({name: value.copy() for name, value in state.items()})
         out = self.outputs(len(action))
         self.step(after, np.asarray(action, dtype=np.float64), out)
+        if "step" in after:
+            after["step"] += 1
         return after, out, self.info(after, out)
 
     def observation(self, state: State) -> np.ndarray:
@@ -142,12 +145,25 @@ def _load_actions(source: np.ndarray, target: np.ndarray, tolerance: float) -> i
     return status
 
 
-def check_actions(action: Any, space: spaces.Box, target: np.ndarray) -> np.ndarray:
-    """Load ``action`` into ``target`` (float64, ``batch_shape + space.shape``) and return it; ValueError on a
-    wrong size, NaN/inf or values outside [-1, 1] by more than ``ACTION_TOLERANCE`` (those within are clipped)."""
-    a = action if isinstance(action, np.ndarray) else np.asarray(action, dtype=np.float64)
-    if a.size != target.size or a.dtype.kind not in "fiub":
-        raise ValueError(f"action has shape {a.shape} and dtype {a.dtype}; expected {target.shape} of floats")
+def check_actions(action: Any, target: np.ndarray) -> np.ndarray:
+    """Load ``action`` into ``target`` (float64, ``(n, action_dim)``) and return it. ValueError on another shape
+    (also taken: a single env's ``(action_dim,)``, ``(n,)`` for one-dimensional actions, a scalar for one
+    number), on NaN/inf and on values outside [-1, 1] by more than ``ACTION_TOLERANCE`` (those within are
+    clipped)."""
+    a = action if isinstance(action, np.ndarray) else np.asarray(action)
+    n, dim = target.shape
+    if not (
+        a.shape == target.shape
+        or (n == 1 and a.shape == (dim,))
+        or (dim == 1 and a.shape == (n,))
+        or (a.size == target.size == 1)
+    ):
+        raise ValueError(f"action has shape {a.shape}; expected {target.shape}")
+    if a.dtype.kind not in "fiu" or not a.dtype.isnative or not 4 <= a.dtype.itemsize <= 8:
+        try:  # bool, float16, long double, object, big-endian, ...: converted by numpy first
+            a = np.asarray(a, dtype=np.float64)
+        except (TypeError, ValueError) as error:
+            raise ValueError(f"action {action!r} is not an array of numbers: {error}") from None
     status = _load_actions(a, target, ACTION_TOLERANCE)
     if status == 1:
         raise ValueError(f"action contains NaN or inf: {a!r}")
@@ -212,8 +228,8 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
 
     Subclasses set ``task_cls`` and a docstring; ``__init__(render_mode=None, **params)`` builds the frozen
     parameter dataclass, so every keyword lands in ``spec.kwargs`` and an unknown one raises ``TypeError``.
-    The state, output and observation arrays are allocated at the first reset and reused; what ``step`` and
-    ``reset`` return are fresh copies.
+    The state arrays are allocated at the first reset, the action and output arrays in ``__init__``, and all are
+    reused; what ``step`` and ``reset`` return are fresh copies.
     """
 
     task_cls: ClassVar[type[Task]]
@@ -261,7 +277,7 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
         if self.state is None:
             raise gym.error.ResetNeeded("Call reset() before step().")
         out = self._out
-        self.task.step(self.state, check_actions(action, self.action_space, self._action), out)
+        self.task.step(self.state, check_actions(action, self._action), out)
         step = self.state["step"]
         step[0] = step.item(0) + 1
         info = self._read_info()  # type: ignore[misc]
@@ -320,8 +336,19 @@ def _core_count() -> int:
 _pool: ThreadPoolExecutor | None = None
 
 
+def _forget_pool() -> None:
+    """In a forked child: the parent's pool threads do not exist there; start a new pool when needed."""
+    global _pool
+    _pool = None
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget_pool)
+
+
 def _in_chunks(n: int, run: Callable[[slice], None]) -> None:
-    """``run(rows)`` over row slices that cover ``range(n)``: one per CPU core on threads for large ``n``."""
+    """``run(rows)`` over row slices that cover ``range(n)``: for large ``n`` one chunk of at least
+    ``PARALLEL_MIN_ENVS // 2`` rows per CPU core, on threads. Returns once every chunk has finished."""
     global _pool
     chunks = min(_core_count(), n // (PARALLEL_MIN_ENVS // 2)) if n >= PARALLEL_MIN_ENVS else 1
     if chunks <= 1:
@@ -331,9 +358,11 @@ def _in_chunks(n: int, run: Callable[[slice], None]) -> None:
         _pool = ThreadPoolExecutor(max_workers=_core_count(), thread_name_prefix="vegym")
     bounds = [n * k // chunks for k in range(chunks + 1)]
     futures = [_pool.submit(run, slice(bounds[k], bounds[k + 1])) for k in range(1, chunks)]
-    run(slice(bounds[0], bounds[1]))
-    for future in futures:
-        future.result()
+    try:
+        run(slice(bounds[0], bounds[1]))
+    finally:  # never leave a chunk writing into the state after returning, even on an error
+        for future in futures:
+            future.result()
 
 
 class VegymVectorEnv(VectorEnv, Generic[P]):
@@ -446,7 +475,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         state = self.state
         if state is None:
             raise gym.error.ResetNeeded("Call reset() before step().")
-        a = check_actions(actions, self.single_action_space, self._action)
+        a = check_actions(actions, self._action)
         out = self.task.outputs(self.num_envs)
         _in_chunks(self.num_envs, lambda rows: self.task.step(rows_of(state, rows), a[rows], rows_of(out, rows)))
         state["step"] += 1

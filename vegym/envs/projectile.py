@@ -261,10 +261,8 @@ class ProjectileTask(Task[ProjectileEnvParams]):
             np.array([0, 0, -1, -1], np.float32), np.array([1, 1, 1, 1], np.float32), dtype=np.float32
         )
         self.action_space = spaces.Box(-1.0, 1.0, (3,), np.float32)
-        self.physics = params.physics
         self._constants = np.array([getattr(params, name) for name in STEP_CONSTANTS], dtype=np.float64)
         self._offset = rng.stream_offset(_SETUP_STREAM)
-        self._along, self._across = np.empty(1), np.empty(1)  # the single env's target offset (x, z), for start()
 
     @property
     def control_rate(self) -> float:
@@ -279,13 +277,12 @@ class ProjectileTask(Task[ProjectileEnvParams]):
 
     def start(self, state: State, keys: np.ndarray, rows: np.ndarray) -> None:
         bearing = state["bearing"]
-        single = len(keys) == len(bearing) == 1
-        along, across = (self._along, self._across) if single else (np.empty(len(keys)), np.empty(len(keys)))
+        along, across = np.empty(len(keys)), np.empty(len(keys))  # the targets' offsets (x, z) from the launchers
         _start_kernel(
             keys, rows, self._constants, self._offset, state["launch_position"], state["target"], state["wind"],
             state["landing_point"], along, across,
         )  # fmt: skip
-        if single:  # row 0: the bearing straight into the state
+        if len(keys) == len(bearing) == 1:  # a single env: the bearing straight into the state
             np.arctan2(across, along, bearing)
         else:
             _scatter_kernel(rows, np.arctan2(across, along, along), bearing)

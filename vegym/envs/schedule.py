@@ -56,7 +56,7 @@ class ChangeSchedule:
     def initial(self, keys: np.ndarray) -> dict[str, np.ndarray]:
         """Schedule state of fresh episodes: demand 0 handed out at step 0."""
         zeros = np.zeros(len(keys), dtype=np.int64)
-        return {"changes": zeros, "last_change": zeros, "next_change": self.next_change(keys, zeros, zeros)}
+        return {"changes": zeros, "last_change": zeros.copy(), "next_change": self.next_change(keys, zeros, zeros)}
 
     def advance(
         self,

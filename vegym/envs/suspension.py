@@ -212,7 +212,7 @@ class SuspensionTask(Task[SuspensionParams]):
             "height": np.full(n, self.static_length),
             "velocity": base_velocity,
             "base": np.zeros(n),
-            "base_velocity": base_velocity,
+            "base_velocity": base_velocity.copy(),
             "acceleration": np.zeros(n),
             "squared_acceleration": np.zeros(n),
         }

@@ -212,7 +212,7 @@ class ThreadTask(Task[ThreadEnvParams]):
         positions[..., 1] += height * shape
         velocities = np.zeros_like(positions)
         excess = thread.energy(positions, velocities, self.physics) - self.rest_energy
-        return {"positions": positions, "velocities": velocities, "initial_excess": excess, "excess": excess}
+        return {"positions": positions, "velocities": velocities, "initial_excess": excess, "excess": excess.copy()}
 
     def output_shapes(self) -> dict[str, tuple[tuple[int, ...], type]]:
         return {
