@@ -141,17 +141,10 @@ def _observe_row(
 
 
 @njit(cache=True, nogil=True)
-def _observe_kernel(theta: np.ndarray, omega: np.ndarray, target: np.ndarray, c: np.ndarray, obs: np.ndarray) -> None:
-    """Observations (n, 6) written into ``obs``; ``c``: see ``PendulumPumpTask._constants``."""
-    for i in range(len(theta)):
-        _observe_row(i, theta, omega, target, c, obs)
-
-
-@njit(cache=True, nogil=True)
-def _observe_rows_kernel(
+def _observe_kernel(
     rows: np.ndarray, theta: np.ndarray, omega: np.ndarray, target: np.ndarray, c: np.ndarray, obs: np.ndarray
 ) -> None:
-    """Observations of the episodes ``rows`` (int indices) written into those rows of ``obs``; ``c``: see
+    """Observations (6,) of the episodes ``rows`` (int indices) written into those rows of ``obs``; ``c``: see
     ``PendulumPumpTask._constants``."""
     for i in rows:
         _observe_row(i, theta, omega, target, c, obs)
@@ -232,7 +225,7 @@ class PendulumPumpTask(Task[PendulumPumpParams]):
         """Hand out the new targets due at this step (``state["step"]`` not yet counted), in place, and observe the
         episodes that changed again."""
         changed = self.schedule.advance(state, state["step"] + 1, "target", self.draw_target)
-        _observe_rows_kernel(changed, state["theta"], state["omega"], state["target"], self._constants, obs)
+        _observe_kernel(changed, state["theta"], state["omega"], state["target"], self._constants, obs)
 
     def info(self, state: State, out: State) -> Info:
         return {
@@ -249,7 +242,7 @@ class PendulumPumpTask(Task[PendulumPumpParams]):
         }
 
     def observe(self, state: State, obs: np.ndarray) -> None:
-        _observe_kernel(state["theta"], state["omega"], state["target"], self._constants, obs)
+        _observe_kernel(np.arange(len(obs)), state["theta"], state["omega"], state["target"], self._constants, obs)
 
 
 class PendulumPumpEnv(VegymEnv[PendulumPumpParams]):
