@@ -8,6 +8,7 @@ import pytest
 
 import vegym  # noqa: F401
 from agents.analytic import GearTrainProportional, controller_for
+from vegym.envs import gear_train
 from vegym.envs.base import owned
 from vegym.envs.gear_train import GearTrainParams, GearTrainTask
 from vegym.physics import wheel
@@ -93,6 +94,8 @@ def test_targets_change_every_interval_from_the_key_alone_and_the_observation_wr
     changes = np.flatnonzero(np.any(np.diff(targets, axis=0) != 0, axis=1)) + 1
     np.testing.assert_array_equal(changes, [10, 20, 30])
     assert np.abs(targets).max() <= np.pi
+    period_2 = vegym.rng.uniform(keys, gear_train._TARGET_STREAM, 1, counter=2)[:, 0]  # the episode's stream
+    np.testing.assert_array_equal(targets[25], np.pi * (2.0 * period_2 - 1.0))
     state = owned({**task.initial_state(keys), "key": keys, "step": np.zeros(4, np.int64)})
     output = task.output_angle(state)
     obs = np.empty((4, 4), np.float32)

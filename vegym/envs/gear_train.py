@@ -75,6 +75,14 @@ def _target_one(key: np.uint64, step: int, interval_steps: int, target_offset: n
     return np.pi * (2.0 * rng.lane(base, 0) - 1.0)
 
 
+@njit(cache=True)
+def _targets_kernel(keys: np.ndarray, steps: np.ndarray, interval_steps: int, target_offset: np.uint64) -> np.ndarray:
+    out = np.empty(len(keys))
+    for i in range(len(keys)):
+        out[i] = _target_one(keys[i], steps[i], interval_steps, target_offset)
+    return out
+
+
 @njit(cache=True, nogil=True)
 def _step_kernel(
     action: np.ndarray,
@@ -181,11 +189,12 @@ class GearTrainTask(Task[GearTrainParams]):
     def control_rate(self) -> float:
         return 1.0 / self.params.dt
 
-    def target(self, keys: np.ndarray, step: np.ndarray) -> np.ndarray:
+    def target(self, keys: np.ndarray, step: np.ndarray | int) -> np.ndarray:
         """Target output angle (n,) in force during step ``step`` (n,): a fresh uniform draw in [-pi, pi) every
-        ``interval_steps`` steps, a pure function of the episode key (the kernels draw the same values)."""
-        period = np.asarray(step) // self.params.interval_steps
-        return np.pi * (2.0 * rng.uniform(keys, _TARGET_STREAM, 1, counter=period)[:, 0] - 1.0)
+        ``interval_steps`` steps, a pure function of the episode key (the kernels' own draw)."""
+        keys = np.ascontiguousarray(keys, dtype=np.uint64)
+        steps = np.ascontiguousarray(np.broadcast_to(np.asarray(step, dtype=np.int64), keys.shape))
+        return _targets_kernel(keys, steps, self._interval_steps, self._target_offset)
 
     def initial_state(self, keys: np.ndarray) -> State:
         p = self.params
