@@ -151,13 +151,6 @@ def _start_kernel(
 
 
 @njit(cache=True, nogil=True)
-def _scatter_kernel(rows: np.ndarray, values: np.ndarray, target: np.ndarray) -> None:
-    """``target[rows[j]] = values[j]``, in place."""
-    for j in range(len(rows)):
-        target[rows[j]] = values[j]
-
-
-@njit(cache=True, nogil=True)
 def _shot_row(
     i: int,
     action: np.ndarray,
@@ -285,7 +278,7 @@ class ProjectileTask(Task[ProjectileEnvParams]):
         if len(keys) == len(bearing) == 1:  # a single env: the bearing straight into the state
             np.arctan2(across, along, bearing)
         else:
-            _scatter_kernel(rows, np.arctan2(across, along, along), bearing)
+            bearing[rows] = np.arctan2(across, along, along)
 
     @staticmethod
     def target_bearing(launch_position: np.ndarray, target: np.ndarray) -> np.ndarray:
