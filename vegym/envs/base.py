@@ -460,9 +460,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         if rows is None or len(rows) == self.num_envs:
             _in_chunks(self.num_envs, lambda r: self.task.observe(rows_of(state, r), obs[r]))
         else:
-            some = np.empty((len(rows), *self.single_observation_space.shape), np.float32)
-            self.task.observe(rows_of(state, rows), some)
-            obs[rows] = some
+            obs[rows] = self.task.observation(rows_of(state, rows))
         return obs
 
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, Info]:
