@@ -198,7 +198,7 @@ def _step_kernel(
     return due
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _observe_row(
     i: int,
     now: int,

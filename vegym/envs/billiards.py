@@ -250,7 +250,7 @@ def _step_kernel(
         _observe_row(i, ball_a, ball_b, target, c, obs)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _observe_row(
     i: int, ball_a: np.ndarray, ball_b: np.ndarray, target: np.ndarray, c: np.ndarray, obs: np.ndarray
 ) -> None:

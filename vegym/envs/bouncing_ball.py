@@ -113,7 +113,7 @@ def _targets_kernel(keys: np.ndarray, count: int, c: np.ndarray, offsets: np.nda
     return out
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _step_kernel(
     action: np.ndarray,
     speed: np.ndarray,
@@ -134,47 +134,84 @@ def _step_kernel(
     terminated: np.ndarray,
     obs: np.ndarray,
 ) -> None:
-    """One impact per episode and the next observation, fused, in place on the state arrays (``speed`` to
+    """One impact per episode and the next observation, in place on the state arrays (``speed`` to
     ``error_sum``; ``keys`` and ``step``, the steps taken before this one, are read only) and into the outputs
     (``impact_speed`` to ``obs``): the impact speed (m/s), restitution, apex (m) and target (m) of this bounce, the
     reward terms (apex error, rest), reward, is_success and terminated (at rest); ``c`` holds the parameters named
-    in ``STEP_CONSTANTS``."""
+    in ``STEP_CONSTANTS``.
+
+    Written as passes over the batch, each a loop without calls or exits that the compiler turns into SIMD code
+    (the bounce, the targets' shift and draw, the observation), and one pass over the few balls that came to rest.
+    """
     radius, gravity, rest_speed, height_scale, bounces_planned, success_error = c[0], c[1], c[2], c[3], c[4], c[5]
-    lookahead = targets.shape[1] - 1
-    for i in range(len(action)):
+    n, lookahead = len(action), targets.shape[1] - 1
+    for i in range(n):
         e = 0.5 * (action[i, 0] + 1.0)
         v = speed[i]
         rebound = -v - particle.normal_impulse_one(-v, e)
         at_rest = rebound < rest_speed
-        if at_rest:
-            rebound = 0.0
+        rebound = 0.0 if at_rest else rebound
         apex = particle.apex_height_one(radius, rebound, gravity)
         flight = particle.ground_time_one(radius, rebound, radius, gravity)
         target = targets[i, 0]
         error = abs(apex - target) / height_scale
-        bounces = step[i] + 1
-        rest_cost = 0.0
-        if at_rest:  # charge every planned bounce skipped, as if at h = radius
-            skipped = np.empty(int(bounces_planned))
-            _fill_targets(keys[i], skipped, c, offsets)
-            for k in range(len(skipped)):
-                skipped[k] = skipped[k] - radius if k >= bounces else 0.0
-            rest_cost = pairwise_sum(skipped) / height_scale
-        errors = error_sum[i] + error + rest_cost
-        counted = max(bounces, bounces_planned) if at_rest else bounces
-        success[i] = errors / counted <= success_error
-        last = targets[i, lookahead]
-        for k in range(lookahead):
-            targets[i, k] = targets[i, k + 1]
-        targets[i, lookahead] = _target(keys[i], step[i] + lookahead + 1, last, c, offsets)
+        errors = error_sum[i] + error
+        success[i] = errors / (step[i] + 1) <= success_error
         speed[i] = -particle.impact_velocity_one(radius, rebound, radius, gravity)
         time[i] = time[i] + (0.0 if at_rest else flight)
         error_sum[i] = errors
         impact_speed[i], restitution[i], apex_height[i], target_height[i] = v, e, apex, target
-        terms[i, 0], terms[i, 1] = -error, -rest_cost
-        reward[i] = -error - rest_cost
+        reward[i] = -error - 0.0
         terminated[i] = at_rest
-        _observe_row(i, speed, targets, c, obs)
+    for i in range(n):  # a pass of its own: strided stores would keep the bounce's pass from SIMD code
+        terms[i, 0], terms[i, 1] = reward[i], -0.0
+    skipped = np.empty(int(bounces_planned))
+    for i in range(n):
+        if terminated[i]:
+            _charge_rest(i, keys, step, targets, c, offsets, skipped, error_sum, terms, reward, success)
+    for k in range(lookahead):
+        for i in range(n):
+            targets[i, k] = targets[i, k + 1]
+    for i in range(n):
+        last = targets[i, lookahead]
+        targets[i, lookahead] = _target(keys[i], step[i] + lookahead + 1, last, c, offsets)
+    _observe_kernel(speed, targets, c, obs)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _charge_rest(
+    i: int,
+    keys: np.ndarray,
+    step: np.ndarray,
+    targets: np.ndarray,
+    c: np.ndarray,
+    offsets: np.ndarray,
+    skipped: np.ndarray,
+    error_sum: np.ndarray,
+    terms: np.ndarray,
+    reward: np.ndarray,
+    success: np.ndarray,
+) -> None:
+    """Charge episode ``i``, whose ball came to rest at this step, every planned bounce it skips, as if at
+    ``h = radius``: its rest term, reward, error sum and is_success (over all planned bounces). The skipped targets
+    are the episode's ``targets`` row (not yet shifted) and, beyond it, the rest of its random walk; ``skipped`` is
+    scratch space of ``episode_bounces`` floats."""
+    radius, height_scale, bounces_planned, success_error = c[0], c[3], c[4], c[5]
+    bounces, lookahead = step[i] + 1, targets.shape[1] - 1
+    previous = targets[i, lookahead]
+    for k in range(len(skipped)):
+        if k < bounces:
+            skipped[k] = 0.0
+            continue
+        if k - step[i] > lookahead:
+            previous = _target(keys[i], k, previous, c, offsets)
+        skipped[k] = (targets[i, k - step[i]] if k - step[i] <= lookahead else previous) - radius
+    rest_cost = pairwise_sum(skipped) / height_scale
+    errors = error_sum[i] + rest_cost
+    error_sum[i] = errors
+    success[i] = errors / max(bounces, bounces_planned) <= success_error
+    terms[i, 1] = -rest_cost
+    reward[i] = terms[i, 0] - rest_cost
 
 
 @njit(cache=True, nogil=True)
@@ -197,22 +234,17 @@ def _start_kernel(
         _fill_targets(keys[j], targets[r], c, offsets)
 
 
-@njit(cache=True, nogil=True)
-def _observe_row(i: int, speed: np.ndarray, targets: np.ndarray, c: np.ndarray, obs: np.ndarray) -> None:
-    """Observation of episode ``i`` into ``obs[i]``; ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
-    radius, height_scale, drop_speed = c[0], c[3], c[10]
-    v = speed[i] / drop_speed
-    obs[i, 0], obs[i, 1] = v, v * v
-    for k in range(targets.shape[1]):
-        obs[i, 2 + k] = (targets[i, k] - radius) / height_scale
-
-
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _observe_kernel(speed: np.ndarray, targets: np.ndarray, c: np.ndarray, obs: np.ndarray) -> None:
     """Observations (n, 3 + lookahead) written into ``obs``; ``c`` holds the parameters named in
-    ``STEP_CONSTANTS``."""
+    ``STEP_CONSTANTS``. Loops over the batch innermost, for SIMD code."""
+    radius, height_scale, drop_speed = c[0], c[3], c[10]
     for i in range(len(speed)):
-        _observe_row(i, speed, targets, c, obs)
+        v = speed[i] / drop_speed
+        obs[i, 0], obs[i, 1] = v, v * v
+    for k in range(targets.shape[1]):
+        for i in range(len(speed)):
+            obs[i, 2 + k] = (targets[i, k] - radius) / height_scale
 
 
 class BouncingBallTask(Task[BouncingBallParams]):

@@ -134,7 +134,7 @@ def _step_kernel(
         _observe_row(i, next_target, angles, gears, speed, ratio, c, obs)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _observe_row(
     i: int,
     target: float,

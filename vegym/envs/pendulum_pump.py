@@ -124,7 +124,7 @@ def _step_kernel(
     return changing
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _observe_row(
     i: int, theta: np.ndarray, omega: np.ndarray, target: np.ndarray, c: np.ndarray, obs: np.ndarray
 ) -> None:

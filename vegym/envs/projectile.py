@@ -150,7 +150,7 @@ def _start_kernel(
         along[j], across[j] = target[i, 0] - launch[i, 0], target[i, 2] - launch[i, 2]
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _shot_row(
     i: int,
     action: np.ndarray,
@@ -212,7 +212,7 @@ def _step_kernel(
         _observe_row(i, launch, target, wind, bearing, c, obs)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _observe_row(
     i: int,
     launch: np.ndarray,

@@ -112,7 +112,7 @@ def _clear_kernel(rows: np.ndarray, misses: np.ndarray, actions: np.ndarray, sho
         shots[i] = 0
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _observe_row(
     i: int,
     launch: np.ndarray,

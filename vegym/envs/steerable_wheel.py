@@ -163,7 +163,7 @@ def _step_kernel(
         _observe_row(i, position, heading, speed, waypoints, index, c, obs)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _observe_row(
     i: int,
     position: np.ndarray,

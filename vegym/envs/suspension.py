@@ -151,7 +151,7 @@ def _step_kernel(
         _observe_row(i, height, velocity, base, base_velocity, acceleration, c, obs)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _observe_row(
     i: int, height: np.ndarray, velocity: np.ndarray, base: np.ndarray, base_velocity: np.ndarray,
     acceleration: np.ndarray, c: np.ndarray, obs: np.ndarray,

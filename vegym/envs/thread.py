@@ -136,7 +136,7 @@ def _step_kernel(
         _observe_row(i, positions, velocities, excess, initial_excess, equilibrium, c, obs)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _observe_row(
     i: int,
     positions: np.ndarray,
