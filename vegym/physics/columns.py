@@ -31,7 +31,8 @@ def pairwise_sum(values: np.ndarray) -> float:
         half = n // 2
         half -= half % 8
         return pairwise_sum(values[:half]) + pairwise_sum(values[half:])
-    r0, r1, r2, r3, r4, r5, r6, r7 = values[0], values[1], values[2], values[3], values[4], values[5], values[6], values[7]
+    r0, r1, r2, r3 = values[0], values[1], values[2], values[3]
+    r4, r5, r6, r7 = values[4], values[5], values[6], values[7]
     for i in range(8, n - n % 8, 8):  # eight running sums in locals: no array allocated per call
         r0, r1, r2, r3 = r0 + values[i], r1 + values[i + 1], r2 + values[i + 2], r3 + values[i + 3]
         r4, r5, r6, r7 = r4 + values[i + 4], r5 + values[i + 5], r6 + values[i + 6], r7 + values[i + 7]
