@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from numba import njit
 
-from vegym.physics import vmath, wheel
+from vegym.physics import vmath
 
 
 @njit(cache=True)
@@ -29,9 +29,10 @@ def _libm_each(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 @njit(cache=True)
 def _wraps(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """vmath.wrap_angle and the formula it stands for, ``(a + pi) % 2 pi - pi`` with Python's modulo (fmod)."""
     a, b = np.empty(x.size), np.empty(x.size)
     for i in range(x.size):
-        a[i], b[i] = vmath.wrap_angle(x[i]), wheel.wrap_one(x[i])
+        a[i], b[i] = vmath.wrap_angle(x[i]), (x[i] + np.pi) % (2.0 * np.pi) - np.pi
     return a, b
 
 

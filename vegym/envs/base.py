@@ -127,22 +127,19 @@ class Task(abc.ABC, Generic[P]):
         return obs
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _load_actions(source: np.ndarray, target: np.ndarray, tolerance: float) -> int:
-    """Copy ``source`` (any shape with ``target.size`` elements) into the float64 array ``target`` (C order),
-    clipping values within ``tolerance`` outside [-1, 1]. Returns 0, or 1 for NaN/inf, 2 for values further out."""
-    flat = target.reshape(-1)
-    status = 0
-    for j, value in enumerate(source.flat):
-        x = np.float64(value)
-        if not np.isfinite(x):
-            return 1
-        if abs(x) > 1.0:
-            if abs(x) > 1.0 + tolerance:
-                status = 2
-            x = min(max(x, -1.0), 1.0)
-        flat[j] = x
-    return status
+    """Copy ``source`` (C-contiguous, ``target.size`` elements) into the float64 array ``target`` (C order),
+    clipping values within ``tolerance`` outside [-1, 1]. Returns 0, or 1 for NaN/inf, 2 for values further out.
+    Branch-free, so that it runs as SIMD code."""
+    values, flat = source.reshape(-1), target.reshape(-1)
+    not_finite, too_far = False, False
+    for j in range(values.size):
+        x = np.float64(values[j])
+        not_finite |= not np.isfinite(x)
+        too_far |= abs(x) > 1.0 + tolerance
+        flat[j] = min(max(x, -1.0), 1.0)
+    return 1 if not_finite else (2 if too_far else 0)
 
 
 def check_actions(action: Any, target: np.ndarray) -> np.ndarray:
@@ -164,6 +161,8 @@ def check_actions(action: Any, target: np.ndarray) -> np.ndarray:
             a = np.asarray(a, dtype=np.float64)
         except (TypeError, ValueError) as error:
             raise ValueError(f"action {action!r} is not an array of numbers: {error}") from None
+    if not a.flags.c_contiguous:
+        a = np.ascontiguousarray(a)
     status = _load_actions(a, target, ACTION_TOLERANCE)
     if status == 1:
         raise ValueError(f"action contains NaN or inf: {a!r}")

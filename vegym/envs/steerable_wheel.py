@@ -12,7 +12,7 @@ from numba import njit
 from vegym import rng
 from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
 from vegym.params import Params, invalid, param
-from vegym.physics import wheel
+from vegym.physics import vmath, wheel
 from vegym.physics.wheel import WheelParams
 
 _SETUP_STREAM = 1
@@ -87,14 +87,15 @@ class SteerableWheelParams(Params):
         return float(np.sqrt(2.0) * self.arena_size)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always", error_model="numpy")
 def _point_segment_distance(px: float, pz: float, sx: float, sz: float, ex: float, ez: float) -> float:
     """Distance (m) from the point ``(px, pz)`` to the segment from ``(sx, sz)`` to ``(ex, ez)``."""
     dx, dz = ex - sx, ez - sz
     qx, qz = px - sx, pz - sz
     length2 = dx * dx + dz * dz
     t = min(max((qx * dx + qz * dz) / length2, 0.0), 1.0) if length2 > 0.0 else 0.0
-    return math.hypot(qx - t * dx, qz - t * dz)
+    x, z = qx - t * dx, qz - t * dz
+    return math.sqrt(x * x + z * z)
 
 
 @njit(cache=True)
@@ -110,7 +111,7 @@ def segment_distance(point: np.ndarray, start: np.ndarray, end: np.ndarray) -> n
     return _segment_distances(*(np.ascontiguousarray(a, dtype=np.float64) for a in (point, start, end)))
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _step_kernel(
     action: np.ndarray,
     position: np.ndarray,
@@ -127,74 +128,74 @@ def _step_kernel(
     terminated: np.ndarray,
     obs: np.ndarray,
 ) -> None:
-    """The whole step and the next observation, fused per episode, in place on the state arrays (``position`` to
-    ``index``) and into the outputs (``steer`` to ``obs``); ``c`` holds the parameters named in
-    ``STEP_CONSTANTS``, in that order."""
+    """The whole step and the next observation, in place on the state arrays (``position`` to ``index``) and
+    into the outputs (``steer`` to ``obs``); ``c`` holds the parameters named in ``STEP_CONSTANTS``, in that order.
+
+    Written as passes over the batch that compile to SIMD code (the move with the capture test of the current
+    waypoint, the rewards, the observation), with the waypoints passed found in a pass over the capturing
+    episodes only. 2-D arrays are read and written through flat views, whose fixed row widths let the compiler
+    vectorise the strided accesses."""
     max_speed, max_acceleration, dt, max_yaw_rate = c[0], c[1], c[2], c[3]
     radius, half_size, capture_radius = c[4], c[5], c[6]
     progress_weight, waypoint_bonus, time_penalty, effort_penalty, exit_penalty = c[7], c[8], c[9], c[10], c[11]
-    last = waypoints.shape[1] - 1
+    n, n_waypoints = len(action), waypoints.shape[1]
+    last = n_waypoints - 1
     dv = max_acceleration * dt
-    for i in range(len(action)):
-        command = 0.5 * max_speed * (action[i, 0] + 1.0)
+    actions, xz, points, term = action.reshape(-1), position.reshape(-1), waypoints.reshape(-1), terms.reshape(-1)
+    scratch = np.empty((7 + 2 * SHOWN_WAYPOINTS, n))  # one allocation: it counts in a single env's step
+    progress, start_x, start_z, target_x = scratch[0], scratch[1], scratch[2], scratch[3]
+    target_z, passed, capturing = scratch[4], scratch[5], scratch[6]
+    _gather_waypoints(waypoints, index, 0, target_x, target_z)
+    for i in range(n):
+        command = 0.5 * max_speed * (actions[2 * i] + 1.0)
         v = min(max(command, speed[i] - dv), speed[i] + dv)
-        yaw_rate = max_yaw_rate * action[i, 1]
-        sx, sz = position[i, 0], position[i, 1]
+        yaw_rate = max_yaw_rate * actions[2 * i + 1]
+        sx, sz = xz[2 * i], xz[2 * i + 1]
         ex, ez, heading[i], roll[i] = wheel.arc_step(sx, sz, heading[i], roll[i], v, yaw_rate, dt, radius)
-        start = k = index[i]
-        tx, tz = waypoints[i, min(k, last), 0], waypoints[i, min(k, last), 1]
-        progress = math.hypot(tx - sx, tz - sz) - math.hypot(tx - ex, tz - ez)
-        while (
-            k <= last
-            and _point_segment_distance(waypoints[i, k, 0], waypoints[i, k, 1], sx, sz, ex, ez) <= capture_radius
-        ):
-            k += 1
-        done = k > last
+        tx, tz = target_x[i], target_z[i]
+        ax, az, bx, bz = tx - sx, tz - sz, tx - ex, tz - ez
+        progress[i] = math.sqrt(ax * ax + az * az) - math.sqrt(bx * bx + bz * bz)
+        capture = (index[i] <= last) & (_point_segment_distance(tx, tz, sx, sz, ex, ez) <= capture_radius)
+        capturing[i], passed[i] = 1.0 if capture else 0.0, 0.0
+        start_x[i], start_z[i] = sx, sz
+        xz[2 * i], xz[2 * i + 1] = ex, ez
+        speed[i], steer[i] = v, yaw_rate * dt
+    for i in range(n):  # the waypoints passed, for the episodes that pass their current one
+        if capturing[i] != 0.0:
+            k = index[i] + 1
+            while k <= last:
+                w = 2 * (i * n_waypoints + k)
+                if (
+                    _point_segment_distance(points[w], points[w + 1], start_x[i], start_z[i], xz[2 * i], xz[2 * i + 1])
+                    > capture_radius
+                ):
+                    break
+                k += 1
+            passed[i], index[i] = k - index[i], k
+    for i in range(n):
+        done = index[i] > last
+        ex, ez = xz[2 * i], xz[2 * i + 1]
         outside = (abs(ex) > half_size or abs(ez) > half_size) and not done
-        terms[i, 0] = progress_weight * progress
-        terms[i, 1] = waypoint_bonus * (k - start)
-        terms[i, 2] = -time_penalty * dt
-        terms[i, 3] = -effort_penalty * dt * action[i, 1] ** 2
-        terms[i, 4] = -exit_penalty if outside else 0.0
-        reward[i] = terms[i, 0] + terms[i, 1] + terms[i, 2] + terms[i, 3] + terms[i, 4]
-        position[i, 0], position[i, 1] = ex, ez
-        speed[i], steer[i], index[i] = v, yaw_rate * dt, k
+        t0, t1, t2 = progress_weight * progress[i], waypoint_bonus * passed[i], -time_penalty * dt
+        a1 = actions[2 * i + 1]
+        t3, t4 = -effort_penalty * dt * (a1 * a1), -exit_penalty if outside else 0.0
+        term[5 * i], term[5 * i + 1], term[5 * i + 2], term[5 * i + 3], term[5 * i + 4] = t0, t1, t2, t3, t4
+        reward[i] = t0 + t1 + t2 + t3 + t4
         success[i], terminated[i] = done, done or outside
-        _observe_row(i, position, heading, speed, waypoints, index, c, obs)
+    _observe_into(position, heading, speed, waypoints, index, c, obs, scratch[7:])
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _observe_row(
-    i: int,
-    position: np.ndarray,
-    heading: np.ndarray,
-    speed: np.ndarray,
-    waypoints: np.ndarray,
-    index: np.ndarray,
-    c: np.ndarray,
-    obs: np.ndarray,
-) -> None:
-    """Observation of episode ``i`` into ``obs[i]``; ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
-    max_speed, diagonal = c[0], c[12]
-    n_waypoints = waypoints.shape[1]
-    sin_h, cos_h = math.sin(heading[i]), math.cos(heading[i])
-    for j in range(SHOWN_WAYPOINTS):
-        w = min(index[i] + j, n_waypoints - 1)
-        dx, dz = waypoints[i, w, 0] - position[i, 0], waypoints[i, w, 1] - position[i, 1]
-        ahead, leftward = dx * sin_h + dz * cos_h, dx * cos_h - dz * sin_h
-        distance = math.hypot(ahead, leftward)
-        column = OBS_PER_WAYPOINT * j
-        obs[i, column] = min(distance / diagonal, 1.0)
-        if distance > 0.0:
-            obs[i, column + 1] = min(max(leftward / distance, -1.0), 1.0)
-            obs[i, column + 2] = min(max(ahead / distance, -1.0), 1.0)
-        else:
-            obs[i, column + 1], obs[i, column + 2] = 0.0, 1.0
-    obs[i, -2] = speed[i] / max_speed
-    obs[i, -1] = index[i] / n_waypoints
+def _gather_waypoints(waypoints: np.ndarray, index: np.ndarray, ahead: int, x: np.ndarray, z: np.ndarray) -> None:
+    """Coordinates (m) of waypoint ``index + ahead`` (the last one past the end) of each episode into ``x``, ``z``:
+    a scalar pass of its own, since data-dependent reads keep a loop from SIMD code."""
+    last = waypoints.shape[1] - 1
+    for i in range(len(index)):
+        w = min(index[i] + ahead, last)
+        x[i], z[i] = waypoints[i, w, 0], waypoints[i, w, 1]
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _observe_kernel(
     position: np.ndarray,
     heading: np.ndarray,
@@ -204,8 +205,71 @@ def _observe_kernel(
     c: np.ndarray,
     obs: np.ndarray,
 ) -> None:
-    for i in range(len(index)):
-        _observe_row(i, position, heading, speed, waypoints, index, c, obs)
+    """Observations (n, 8) written into ``obs``; ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
+    shown = np.empty((2 * SHOWN_WAYPOINTS, len(index)))
+    _observe_into(position, heading, speed, waypoints, index, c, obs, shown)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _observe_into(
+    position: np.ndarray,
+    heading: np.ndarray,
+    speed: np.ndarray,
+    waypoints: np.ndarray,
+    index: np.ndarray,
+    c: np.ndarray,
+    obs: np.ndarray,
+    shown: np.ndarray,
+) -> None:
+    """:func:`_observe_kernel` with scratch space ``shown`` (2 * SHOWN_WAYPOINTS, n) for the shown waypoints'
+    coordinates: one SIMD pass over the batch after their gathering."""
+    max_speed, diagonal = c[0], c[12]
+    n, n_waypoints = len(index), waypoints.shape[1]
+    xz, out = position.reshape(-1), obs.reshape(-1)
+    width = OBS_PER_WAYPOINT * SHOWN_WAYPOINTS + 2
+    for j in range(SHOWN_WAYPOINTS):
+        _gather_waypoints(waypoints, index, j, shown[2 * j], shown[2 * j + 1])
+    for i in range(n):
+        sin_h, cos_h = vmath.sincos(heading[i])
+        for j in range(SHOWN_WAYPOINTS):
+            dx, dz = shown[2 * j, i] - xz[2 * i], shown[2 * j + 1, i] - xz[2 * i + 1]
+            ahead, leftward = dx * sin_h + dz * cos_h, dx * cos_h - dz * sin_h
+            distance = math.sqrt(ahead * ahead + leftward * leftward)
+            column = width * i + OBS_PER_WAYPOINT * j
+            out[column] = min(distance / diagonal, 1.0)
+            out[column + 1] = min(max(leftward / distance, -1.0), 1.0) if distance > 0.0 else 0.0
+            out[column + 2] = min(max(ahead / distance, -1.0), 1.0) if distance > 0.0 else 1.0
+        out[width * i + width - 2] = speed[i] / max_speed
+        out[width * i + width - 1] = index[i] / n_waypoints
+
+
+@njit(cache=True, nogil=True)
+def _start_kernel(
+    keys: np.ndarray,
+    rows: np.ndarray,
+    setup_offset: np.uint64,
+    extent: float,
+    position: np.ndarray,
+    heading: np.ndarray,
+    roll: np.ndarray,
+    speed: np.ndarray,
+    waypoints: np.ndarray,
+    index: np.ndarray,
+) -> None:
+    """Fresh episodes of ``keys`` written in place into the rows ``rows`` of the state arrays, as
+    ``SteerableWheelTask.initial_state`` draws them (the setup stream's lanes: heading, then the start and the
+    waypoints, uniform in ``[-extent, extent]`` m)."""
+    n_waypoints = waypoints.shape[1]
+    for j in range(len(rows)):
+        r = rows[j]
+        base = rng.stream_base(keys[j], setup_offset, np.uint64(0))
+        heading[r] = np.pi * (2.0 * rng.lane(base, 0) - 1.0)
+        position[r, 0] = extent * (2.0 * rng.lane(base, 1) - 1.0)
+        position[r, 1] = extent * (2.0 * rng.lane(base, 2) - 1.0)
+        for k in range(n_waypoints):
+            waypoints[r, k, 0] = extent * (2.0 * rng.lane(base, 3 + 2 * k) - 1.0)
+            waypoints[r, k, 1] = extent * (2.0 * rng.lane(base, 4 + 2 * k) - 1.0)
+        roll[r], speed[r], index[r] = 0.0, 0.0, 0
 
 
 class SteerableWheelTask(Task[SteerableWheelParams]):
@@ -240,6 +304,12 @@ class SteerableWheelTask(Task[SteerableWheelParams]):
             "waypoints": np.ascontiguousarray(points[:, 2:]).reshape(n, p.n_waypoints, 2),
             "index": np.zeros(n, dtype=np.int64),
         }
+
+    def start(self, state: State, keys: np.ndarray, rows: np.ndarray) -> None:
+        _start_kernel(
+            keys, rows, rng.stream_offset(_SETUP_STREAM), self.params.half_size - self.params.waypoint_margin,
+            state["position"], state["heading"], state["roll"], state["speed"], state["waypoints"], state["index"],
+        )  # fmt: skip
 
     def output_shapes(self) -> dict[str, tuple[tuple[int, ...], type]]:
         return {"steer": ((), np.float64), "terms": ((len(REWARD_TERMS),), np.float64), "success": ((), np.bool_)}

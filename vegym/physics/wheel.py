@@ -16,7 +16,6 @@ The roll angle ``alpha`` grows by ``v dt / r`` as the wheel rolls forward.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import NamedTuple
 
@@ -24,6 +23,7 @@ import numpy as np
 from numba import njit
 
 from vegym.params import Params, param
+from vegym.physics import vmath
 from vegym.physics.columns import flat_columns
 
 
@@ -43,10 +43,11 @@ class Pose(NamedTuple):
     roll: np.ndarray
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def wrap_one(angle: float) -> float:
-    """One angle wrapped into ``[-pi, pi]`` (rad): ``(a + pi) mod 2 pi - pi`` (``pi`` itself only through rounding)."""
-    return (angle + np.pi) % (2.0 * np.pi) - np.pi
+    """One angle wrapped into ``[-pi, pi]`` (rad): ``(a + pi) mod 2 pi - pi`` (``pi`` itself only through rounding),
+    by :func:`vegym.physics.vmath.wrap_angle` (SIMD-friendly, Python's ``%`` bit for bit for ``|a| < 5 pi``)."""
+    return vmath.wrap_angle(angle)
 
 
 @njit(cache=True)
@@ -151,20 +152,22 @@ def left(heading: np.ndarray) -> np.ndarray:
     return np.stack([np.cos(psi), np.zeros_like(psi), -np.sin(psi)], axis=-1)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always", error_model="numpy")
 def arc_step(
     x: float, z: float, heading: float, roll: float, speed: float, yaw_rate: float, dt: float, radius: float
 ) -> tuple[float, float, float, float]:
     """:func:`steer_step` for one wheel in scalars (SI, rad): ``(x, z, heading, roll)`` after ``dt``.
 
     The one compiled form of the arc: :func:`steer_step` loops over it and SteerableWheel-v0's step kernel inlines it.
+    Branch-free (sine and cosine from :func:`vegym.physics.vmath.sincos`), so a loop over wheels runs as SIMD code.
     """
     distance = speed * dt
     phi = yaw_rate * dt
     half_turn = np.pi * (0.5 * phi / np.pi)  # np.sinc's argument, so the chord rounds as np.sinc(phi / 2 pi) does
-    chord = distance * (math.sin(half_turn) / half_turn if half_turn != 0.0 else 1.0)
-    mid = heading + 0.5 * phi
-    return x + chord * math.sin(mid), z + chord * math.cos(mid), wrap_one(heading + phi), roll + distance / radius
+    sin_half = vmath.sincos(half_turn)[0]
+    chord = distance * (sin_half / half_turn if half_turn != 0.0 else 1.0)
+    sin_mid, cos_mid = vmath.sincos(heading + 0.5 * phi)
+    return x + chord * sin_mid, z + chord * cos_mid, wrap_one(heading + phi), roll + distance / radius
 
 
 @njit(cache=True)
