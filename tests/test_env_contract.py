@@ -196,6 +196,21 @@ def test_transition_is_the_env_step_as_a_pure_function(env_id: str) -> None:
             break
 
 
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_observing_some_rows_writes_those_rows_of_the_full_observation_only(env_id: str) -> None:
+    vec = gym.make_vec(env_id, num_envs=12, vectorization_mode="vector_entry_point")
+    vec.reset(seed=4)
+    for _ in range(5):
+        vec.step(vec.action_space.sample())
+    task, state = vec.unwrapped.task, vec.unwrapped.state
+    rows = np.array([0, 3, 4, 11])
+    obs = np.full((12, *task.observation_space.shape), -7.0, np.float32)
+    task.observe_rows(state, rows, obs)
+    others = np.setdiff1d(np.arange(12), rows)
+    np.testing.assert_array_equal(obs[rows], task.observation(state)[rows])
+    assert (obs[others] == -7.0).all()
+
+
 def test_a_forked_child_steps_a_threaded_vector_env(monkeypatch: pytest.MonkeyPatch) -> None:
     """The thread pool does not survive a fork; the child must start its own instead of waiting forever."""
     monkeypatch.setattr(base, "PARALLEL_MIN_ENVS", 8)

@@ -109,6 +109,11 @@ class Task(abc.ABC, Generic[P]):
     def observe(self, state: State, obs: np.ndarray) -> None:
         """Write the observations (n, obs_dim) into ``obs`` (float32), inside ``observation_space``."""
 
+    def observe_rows(self, state: State, rows: np.ndarray, obs: np.ndarray) -> None:
+        """Write the observations of the episodes ``rows`` (int indices) into those rows of ``obs`` (n, obs_dim).
+        Tasks whose episodes restart often override it with a kernel over the rows (this one gathers them)."""
+        obs[rows] = self.observation(rows_of(state, rows))
+
     def transition(self, state: State, action: np.ndarray) -> tuple[State, State, Info]:
         """One step as a pure function, for tests and analysis (the envs step in place): a copy of ``state``
         advanced by ``action`` (n, action_dim) with its ``step`` counted (if it has one), the step's outputs
@@ -451,16 +456,15 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         state["key"][rows], state["step"][rows] = keys, 0
 
     def _observe(self, obs: np.ndarray | None = None, rows: np.ndarray | None = None) -> np.ndarray:
-        """Observations of every sub-env, or only of ``rows`` (int indices) written into ``obs``. From an eighth of
-        the sub-envs on, all are observed again (the same values for the others): cheaper than gathering rows."""
+        """Observations of every sub-env, or only of ``rows`` (int indices) written into ``obs``."""
         state = self.state
         assert state is not None
         if obs is None:
             obs = np.empty((self.num_envs, *self.single_observation_space.shape), np.float32)
-        if rows is None or 8 * len(rows) >= self.num_envs:
+        if rows is None or len(rows) == self.num_envs:
             _in_chunks(self.num_envs, lambda r: self.task.observe(rows_of(state, r), obs[r]))
         else:
-            obs[rows] = self.task.observation(rows_of(state, rows))
+            self.task.observe_rows(state, rows, obs)
         return obs
 
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, Info]:

@@ -247,6 +247,19 @@ def _observe_kernel(speed: np.ndarray, targets: np.ndarray, c: np.ndarray, obs: 
             obs[i, 2 + k] = (targets[i, k] - radius) / height_scale
 
 
+@njit(cache=True, nogil=True, error_model="numpy")
+def _observe_rows_kernel(
+    rows: np.ndarray, speed: np.ndarray, targets: np.ndarray, c: np.ndarray, obs: np.ndarray
+) -> None:
+    """:func:`_observe_kernel` of the episodes ``rows`` (int indices) only, into those rows of ``obs``."""
+    radius, height_scale, drop_speed = c[0], c[3], c[10]
+    for r in rows:
+        v = speed[r] / drop_speed
+        obs[r, 0], obs[r, 1] = v, v * v
+        for k in range(targets.shape[1]):
+            obs[r, 2 + k] = (targets[r, k] - radius) / height_scale
+
+
 class BouncingBallTask(Task[BouncingBallParams]):
     """Batched logic of BouncingBall-v0 (see :class:`BouncingBallEnv`)."""
 
@@ -319,6 +332,9 @@ class BouncingBallTask(Task[BouncingBallParams]):
 
     def observe(self, state: State, obs: np.ndarray) -> None:
         _observe_kernel(state["speed"], state["targets"], self._constants, obs)
+
+    def observe_rows(self, state: State, rows: np.ndarray, obs: np.ndarray) -> None:
+        _observe_rows_kernel(rows, state["speed"], state["targets"], self._constants, obs)
 
 
 def optimal_apexes(targets: np.ndarray, start_apex: float, radius: float) -> np.ndarray:
