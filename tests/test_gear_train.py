@@ -107,6 +107,17 @@ def test_targets_change_every_interval_from_the_key_alone_and_the_observation_wr
     np.testing.assert_array_equal(out["target"], targets[0])
 
 
+def test_the_step_writes_the_observation_of_its_state_bit_for_bit_across_target_changes_and_resets() -> None:
+    n = 64
+    env = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point")
+    task, rng = env.unwrapped.task, np.random.default_rng(5)
+    env.reset(seed=2)
+    assert len(np.unique(env.unwrapped.state["gears"])) == 4  # every chain length, 2 to 5 gears
+    for _ in range(250):  # targets change at steps 100 and 200, episodes end after 200
+        obs, *_ = env.step(rng.uniform(-1.0, 1.0, (n, 1)).astype(np.float32))
+        np.testing.assert_array_equal(obs, task.observation(env.unwrapped.state))
+
+
 def test_parameters_that_could_turn_the_output_half_a_turn_per_step_are_rejected() -> None:
     with pytest.raises(ValueError, match="max_speed"):
         GearTrainParams(max_speed=20.0)

@@ -147,6 +147,22 @@ def test_the_swing_does_not_depend_on_the_step_only_on_the_time() -> None:
     np.testing.assert_allclose(runs[0], runs[1], rtol=1e-9)
 
 
+def test_the_step_writes_the_observation_of_its_state_bit_for_bit_target_changes_included() -> None:
+    """The step kernel reuses the energy and amplitude it computed for its observations; they must be exactly
+    those the observe kernel computes from the state (which the vector env uses after resets)."""
+    n = 64
+    env = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point")
+    task, rng = env.unwrapped.task, np.random.default_rng(5)
+    env.reset(seed=2)
+    changed = 0
+    for _ in range(450):
+        target = env.unwrapped.state["target"].copy()
+        obs, *_ = env.step(rng.uniform(-1.0, 1.0, (n, 1)).astype(np.float32))
+        np.testing.assert_array_equal(obs, task.observation(env.unwrapped.state))
+        changed += np.count_nonzero(env.unwrapped.state["target"] != target)
+    assert changed >= n
+
+
 @pytest.mark.parametrize(
     ("kwargs", "name"),
     [

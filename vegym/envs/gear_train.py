@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -12,7 +11,7 @@ from numba import njit
 from vegym import rng
 from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
 from vegym.params import Params, invalid, param
-from vegym.physics import wheel
+from vegym.physics import vmath, wheel
 
 _SETUP_STREAM = 1
 _TARGET_STREAM = 2
@@ -67,11 +66,14 @@ STEP_CONSTANTS = ("max_speed", "max_acceleration", "dt", "tracking_weight", "eff
 """Parameters the kernels read, in the order of their constants array (SI units, see the fields)."""
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _target_one(key: np.uint64, step: int, interval_steps: int, target_offset: np.uint64) -> float:
     """Target output angle (rad) in force during step ``step`` of the episode of ``key`` (as
     :meth:`GearTrainTask.target`)."""
-    base = rng.stream_base(key, target_offset, np.uint64(step // interval_steps))
+    # step // interval_steps through a float quotient, which SIMD-compiles (there is no vector integer division):
+    # exact, as the quotient of non-negative integers whose sum is below 2^52 never rounds up to the next integer
+    counter = np.uint64(np.floor(step / interval_steps))
+    base = rng.stream_base(key, target_offset, counter)
     return np.pi * (2.0 * rng.lane(base, 0) - 1.0)
 
 
@@ -83,7 +85,7 @@ def _targets_kernel(keys: np.ndarray, steps: np.ndarray, interval_steps: int, ta
     return out
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _step_kernel(
     action: np.ndarray,
     key: np.ndarray,
@@ -106,53 +108,68 @@ def _step_kernel(
     terminated: np.ndarray,
     obs: np.ndarray,
 ) -> None:
-    """The whole step and the next observation, fused per episode, in place on the state arrays (``speed``,
-    ``angles``) and into the outputs (``target``, the target of the step, to ``obs``); ``c`` holds the parameters
-    named in ``STEP_CONSTANTS``, in that order. The targets are drawn from the key's stream ``target_offset``, a
-    fresh one every ``interval_steps`` steps."""
+    """The whole step and the next observation, in place on the state arrays (``speed``, ``angles``) and into the
+    outputs (``target``, the target of the step, to ``obs``); ``c`` holds the parameters named in
+    ``STEP_CONSTANTS``, in that order. The targets are drawn from the key's stream ``target_offset``, a fresh one
+    every ``interval_steps`` steps.
+
+    Written as passes over the batch that the compiler turns into SIMD code: the motor, each gear in turn (on
+    scratch copies of the radii and angles with the batch axis last, copied in and the angles back out in passes
+    of their own), the targets and terms, the observation."""
     max_speed, max_acceleration, dt, tracking_weight, effort_weight, tolerance = c[0], c[1], c[2], c[3], c[4], c[5]
-    g = radii.shape[1]
+    n, g = len(action), radii.shape[1]
+    gear_speed, next_target, tracking, effort = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
     dv = max_acceleration * dt
-    for i in range(len(action)):
+    for i in range(n):
         v = min(max(max_speed * action[i, 0], speed[i] - dv), speed[i] + dv)
-        speed[i] = v
-        gear_speed, last = v, gears[i] - 1
+        speed[i], gear_speed[i] = v, v
+    radius, angle = np.empty((g, n)), np.empty((g, n))  # radii and angles, batch axis last
+    for i in range(n):
         for k in range(g):
-            if k > 0:  # each mesh turns the next gear at -r_{k-1} / r_k times the speed (wheel.train_speeds)
-                gear_speed = gear_speed * -(radii[i, k - 1] / radii[i, k])
-            angles[i, k] = wheel.wrap_one(angles[i, k] + gear_speed * dt)
-            if k == last:
-                output_speed[i] = gear_speed
+            radius[k, i], angle[k, i] = radii[i, k], angles[i, k]
+    for k in range(g):
+        for i in range(n):
+            # each mesh turns the next gear at -r_{k-1} / r_k times the speed (wheel.train_speeds); unused at k = 0
+            s = gear_speed[i] * -(radius[k - 1, i] / radius[k, i]) if k > 0 else gear_speed[i]
+            a = vmath.wrap_angle(angle[k, i] + s * dt)
+            angle[k, i] = a
+            gear_speed[i] = s
+            is_output = k == gears[i] - 1
+            output_speed[i] = s if is_output else output_speed[i]
+            output[i] = a if is_output else output[i]
+    for i in range(n):  # the angles back
+        for k in range(g):
+            angles[i, k] = angle[k, i]
+    for i in range(n):
         target[i] = _target_one(key[i], step[i], interval_steps, target_offset)
-        output[i] = angles[i, last]
-        error[i] = wheel.wrap_one(target[i] - output[i])
-        terms[i, 0] = -tracking_weight * dt * abs(error[i]) / np.pi
-        terms[i, 1] = -effort_weight * dt * action[i, 0] ** 2
-        reward[i] = terms[i, 0] + terms[i, 1]
+        next_target[i] = _target_one(key[i], step[i] + 1, interval_steps, target_offset)
+        error[i] = vmath.wrap_angle(target[i] - output[i])
+        tracking[i] = -tracking_weight * dt * abs(error[i]) / np.pi
+        effort[i] = -effort_weight * dt * action[i, 0] ** 2
+        reward[i] = tracking[i] + effort[i]
         success[i], terminated[i] = abs(error[i]) <= tolerance, False
-        next_target = _target_one(key[i], step[i] + 1, interval_steps, target_offset)
-        _observe_row(i, next_target, angles, gears, speed, ratio, c, obs)
+    for i in range(n):  # strided stores
+        terms[i, 0], terms[i, 1] = tracking[i], effort[i]
+    _observe_rows(next_target, output, speed, ratio, c, obs)
 
 
-@njit(cache=True, nogil=True, inline="always")
-def _observe_row(
-    i: int,
-    target: float,
-    angles: np.ndarray,
-    gears: np.ndarray,
-    speed: np.ndarray,
-    ratio: np.ndarray,
-    c: np.ndarray,
-    obs: np.ndarray,
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _observe_rows(
+    target: np.ndarray, output: np.ndarray, speed: np.ndarray, ratio: np.ndarray, c: np.ndarray, obs: np.ndarray
 ) -> None:
-    """Observation of episode ``i`` under the target angle ``target`` (rad) into ``obs[i]``; ``c`` holds the
-    parameters named in ``STEP_CONSTANTS``."""
-    error = target - angles[i, gears[i] - 1]
-    obs[i, 0], obs[i, 1] = math.sin(error), math.cos(error)
-    obs[i, 2], obs[i, 3] = speed[i] / c[0], ratio[i] / c[6]
+    """Observations (n, 4) into ``obs`` from the target angle ``target`` and output angle ``output`` (rad) of each
+    episode; ``c`` holds the parameters named in ``STEP_CONSTANTS``. The sines and cosines in a SIMD pass, the
+    strided stores in another."""
+    n = len(obs)
+    sine, cosine = np.empty(n), np.empty(n)
+    for i in range(n):
+        sine[i], cosine[i] = vmath.sincos(target[i] - output[i])
+    for i in range(n):
+        obs[i, 0], obs[i, 1] = sine[i], cosine[i]
+        obs[i, 2], obs[i, 3] = speed[i] / c[0], ratio[i] / c[6]
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _observe_kernel(
     key: np.ndarray,
     step: np.ndarray,
@@ -165,10 +182,14 @@ def _observe_kernel(
     target_offset: np.uint64,
     obs: np.ndarray,
 ) -> None:
-    """Observations (n, 4) into ``obs``, against the targets in force at ``step``."""
-    for i in range(len(step)):
-        target = _target_one(key[i], step[i], interval_steps, target_offset)
-        _observe_row(i, target, angles, gears, speed, ratio, c, obs)
+    """Observations (n, 4) into ``obs``, against the targets in force at ``step``, in passes (see
+    :func:`_step_kernel`)."""
+    n = len(step)
+    target, output = np.empty(n), np.empty(n)
+    for i in range(n):
+        target[i] = _target_one(key[i], step[i], interval_steps, target_offset)
+        output[i] = angles[i, gears[i] - 1]
+    _observe_rows(target, output, speed, ratio, c, obs)
 
 
 class GearTrainTask(Task[GearTrainParams]):

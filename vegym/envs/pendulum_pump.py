@@ -13,7 +13,7 @@ from vegym import rng
 from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
 from vegym.envs.schedule import ScheduledParams
 from vegym.params import Params, invalid, param
-from vegym.physics import pendulum
+from vegym.physics import pendulum, vmath
 from vegym.physics.particle import STANDARD_GRAVITY
 from vegym.physics.pendulum import PendulumParams
 
@@ -72,7 +72,7 @@ REWARD_TERMS = ("amplitude", "effort")
 """Names of ``info["reward_terms"]``, in the order of the step kernel's ``terms`` columns."""
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _step_kernel(
     action: np.ndarray,
     theta: np.ndarray,
@@ -92,62 +92,91 @@ def _step_kernel(
     terminated: np.ndarray,
     obs: np.ndarray,
 ) -> bool:
-    """The whole step but the target schedule, and the next observation, fused per episode, in place on ``theta``
-    (rad, wrapped to [-pi, pi)) and ``omega`` (rad/s) and into the outputs (``torque`` to ``obs``): the torque
-    (N m), energy (J), amplitude (rad), target amplitude (rad) and target energy (J) of this step, the reward
-    terms (amplitude, effort), reward, is_success and terminated (never). ``target``, ``next_change`` and
-    ``step`` (the steps taken before this one) are read only; ``c``: see ``PendulumPumpTask._constants``.
-    Returns whether a target change is due at this step in some episode, whose state and observation the caller
-    must then update (the observations written here show the target before the change)."""
+    """The whole step but the target schedule, and the next observation, in place on ``theta`` (rad, wrapped to
+    [-pi, pi)) and ``omega`` (rad/s) and into the outputs (``torque`` to ``obs``): the torque (N m), energy (J),
+    amplitude (rad), target amplitude (rad) and target energy (J) of this step, the reward terms (amplitude,
+    effort), reward, is_success and terminated (never). ``target``, ``next_change`` and ``step`` (the steps taken
+    before this one) are read only; ``c``: see ``PendulumPumpTask._constants``. Returns whether a target change is
+    due at this step in some episode, whose state and observation the caller must then update (the observations
+    written here show the target before the change).
+
+    Written as passes over the batch that the compiler turns into SIMD code: the substeps (each a pass over the
+    state in scratch arrays), the energies and the terms; the amplitude's arccos (a libm call) and the strided
+    stores of the terms and observations in passes of their own."""
     max_torque, dt, h, substeps = c[0], c[1], c[2], int(c[3])
     g_over_l, damping, inertia, weight_moment = c[4], c[5], c[6], c[7]
     effort_weight, success_tolerance = c[8], c[9]
-    changing = False
-    for i in range(len(action)):
+    n = len(action)
+    th, om, sine, cosine = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    tracking, effort = np.empty(n), np.empty(n)
+    for i in range(n):
         torque[i] = max_torque * action[i, 0]
-        th, om = theta[i], omega[i]
-        for _ in range(substeps):
-            th, om = pendulum.swing(th, om, torque[i], h, g_over_l, damping, inertia)
-        th = (th + np.pi) % (2.0 * np.pi) - np.pi
-        theta[i], omega[i] = th, om
-        energy[i] = pendulum.energy_of(th, om, inertia, weight_moment)
-        amplitude[i] = pendulum.amplitude_of(energy[i], weight_moment)
+        th[i], om[i] = theta[i], omega[i]
+    for _ in range(substeps):
+        for i in range(n):
+            th[i], om[i] = pendulum.swing(th[i], om[i], torque[i], h, g_over_l, damping, inertia)
+    changing = False
+    for i in range(n):
+        angle = vmath.wrap_angle(th[i])
+        theta[i], omega[i] = angle, om[i]
+        sine[i], cosine[i] = vmath.sincos(angle)
+        energy[i] = pendulum.energy_from_cos(cosine[i], om[i], inertia, weight_moment)
         target_amplitude[i] = target[i]
         target_energy[i] = pendulum.energy_of(target[i], 0.0, inertia, weight_moment)
-        error = amplitude[i] - target[i]
-        terms[i, 0] = -dt * abs(error) / np.pi
-        terms[i, 1] = -effort_weight * dt * action[i, 0] ** 2
-        reward[i] = terms[i, 0] + terms[i, 1]
-        success[i], terminated[i] = abs(error) <= success_tolerance, False
+        terminated[i] = False
         changing |= step[i] + 1 >= next_change[i]
-        _observe_row(i, theta, omega, target, c, obs)
+    for i in range(n):  # arccos: a libm call
+        amplitude[i] = pendulum.amplitude_of(energy[i], weight_moment)
+    for i in range(n):
+        error = amplitude[i] - target[i]
+        tracking[i] = -dt * abs(error) / np.pi
+        effort[i] = -effort_weight * dt * action[i, 0] ** 2
+        reward[i] = tracking[i] + effort[i]
+        success[i] = abs(error) <= success_tolerance
+    for i in range(n):  # strided stores
+        terms[i, 0], terms[i, 1] = tracking[i], effort[i]
+        _observe_row(i, sine[i], cosine[i], omega[i], target[i], energy[i], target_energy[i], amplitude[i], c, obs)
     return changing
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _observe_row(
-    i: int, theta: np.ndarray, omega: np.ndarray, target: np.ndarray, c: np.ndarray, obs: np.ndarray
+    i: int,
+    sine: float,
+    cosine: float,
+    omega: float,
+    target: float,
+    energy: float,
+    target_energy: float,
+    amplitude: float,
+    c: np.ndarray,
+    obs: np.ndarray,
 ) -> None:
-    """Observation of episode ``i`` into ``obs[i]``; ``c``: see ``PendulumPumpTask._constants``."""
-    inertia, weight_moment, rate_scale = c[6], c[7], c[10]
-    energy = pendulum.energy_of(theta[i], omega[i], inertia, weight_moment)
-    target_energy = pendulum.energy_of(target[i], 0.0, inertia, weight_moment)
-    obs[i, 0] = math.sin(theta[i])
-    obs[i, 1] = math.cos(theta[i])
-    obs[i, 2] = min(max(omega[i] / rate_scale, -1.0), 1.0)
-    obs[i, 3] = target[i] / np.pi
+    """Observation of episode ``i`` into ``obs[i]`` from the sine and cosine of its angle, its angular velocity
+    (rad/s), target amplitude (rad), energy and target energy (J) and amplitude (rad); ``c``: see
+    ``PendulumPumpTask._constants``."""
+    weight_moment, rate_scale = c[7], c[10]
+    obs[i, 0] = sine
+    obs[i, 1] = cosine
+    obs[i, 2] = min(max(omega / rate_scale, -1.0), 1.0)
+    obs[i, 3] = target / np.pi
     obs[i, 4] = min(max((energy - target_energy) / (2.0 * weight_moment), -1.0), 1.0)
-    obs[i, 5] = (pendulum.amplitude_of(energy, weight_moment) - target[i]) / np.pi
+    obs[i, 5] = (amplitude - target) / np.pi
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _observe_kernel(
     rows: np.ndarray, theta: np.ndarray, omega: np.ndarray, target: np.ndarray, c: np.ndarray, obs: np.ndarray
 ) -> None:
-    """Observations (6,) of the episodes ``rows`` (int indices) written into those rows of ``obs``; ``c``: see
-    ``PendulumPumpTask._constants``."""
+    """Observations (6,) of the episodes ``rows`` (int indices) written into those rows of ``obs``, as the step
+    kernel writes them; ``c``: see ``PendulumPumpTask._constants``."""
+    inertia, weight_moment = c[6], c[7]
     for i in rows:
-        _observe_row(i, theta, omega, target, c, obs)
+        sine, cosine = vmath.sincos(theta[i])
+        energy = pendulum.energy_from_cos(cosine, omega[i], inertia, weight_moment)
+        target_energy = pendulum.energy_of(target[i], 0.0, inertia, weight_moment)
+        amplitude = pendulum.amplitude_of(energy, weight_moment)
+        _observe_row(i, sine, cosine, omega[i], target[i], energy, target_energy, amplitude, c, obs)
 
 
 class PendulumPumpTask(Task[PendulumPumpParams]):

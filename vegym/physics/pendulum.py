@@ -23,6 +23,7 @@ import numpy as np
 from numba import njit
 
 from vegym.params import Params, param
+from vegym.physics import vmath
 from vegym.physics.columns import flat_columns
 from vegym.physics.particle import STANDARD_GRAVITY
 
@@ -62,8 +63,9 @@ class PendulumParams(Params):
 def acceleration_of(
     theta: float, omega: float, torque: float, g_over_l: float, damping: float, inertia: float
 ) -> float:
-    """One pendulum's ``-(g/L) sin theta - (b / (m L^2)) omega + tau / (m L^2)`` (rad/s^2), in scalars."""
-    return -g_over_l * math.sin(theta) + (torque - damping * omega) / inertia
+    """One pendulum's ``-(g/L) sin theta - (b / (m L^2)) omega + tau / (m L^2)`` (rad/s^2), in scalars (branch-free:
+    :func:`vmath.sincos`)."""
+    return -g_over_l * vmath.sincos(theta)[0] + (torque - damping * omega) / inertia
 
 
 @njit(cache=True)
@@ -80,8 +82,15 @@ def swing(
 
 @njit(cache=True)
 def energy_of(theta: float, omega: float, inertia: float, weight_moment: float) -> float:
-    """One pendulum's ``m L^2 omega^2 / 2 + m g L (1 - cos theta)`` (J), in scalars."""
-    return 0.5 * inertia * omega * omega + weight_moment * (1.0 - math.cos(theta))
+    """One pendulum's ``m L^2 omega^2 / 2 + m g L (1 - cos theta)`` (J), in scalars (branch-free:
+    :func:`vmath.sincos`)."""
+    return energy_from_cos(vmath.sincos(theta)[1], omega, inertia, weight_moment)
+
+
+@njit(cache=True)
+def energy_from_cos(cos_theta: float, omega: float, inertia: float, weight_moment: float) -> float:
+    """:func:`energy_of` from ``cos theta``, for a caller that has it already, in scalars."""
+    return 0.5 * inertia * omega * omega + weight_moment * (1.0 - cos_theta)
 
 
 @njit(cache=True)
