@@ -12,7 +12,7 @@ from numba import njit
 from vegym import rng
 from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
 from vegym.params import Params, invalid, param
-from vegym.physics import collision
+from vegym.physics import collision, vmath
 
 _SETUP_STREAM = 1
 
@@ -120,7 +120,7 @@ STEP_CONSTANTS = (
 """Parameters the kernels read, in the order of their constants array (SI units, radians; see the fields)."""
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _start_kernel(
     keys: np.ndarray,
     rows: np.ndarray,
@@ -133,21 +133,29 @@ def _start_kernel(
     """Fresh episodes of ``keys`` written in place into the rows ``rows`` of ``ball_a`` (the origin), ``ball_b``
     and ``target`` ((n, 2), m), from 4 uniform lanes of each key's setup draw: distance A-B, bearing of B,
     distance of the target from B and its bearing off the line A-B. ``c`` holds the parameters named in
-    ``STEP_CONSTANTS``."""
+    ``STEP_CONSTANTS``. Written as a pass over the keys that the compiler turns into SIMD code (the draws, into
+    scratch rows) and a pass that stores them into the state's rows (strided, and scattered)."""
     target_distance_min, target_distance_max, ball_distance_min, ball_distance_max, bearing_max = (
         c[7], c[8], c[10], c[11], c[12]
     )  # fmt: skip
-    for j in range(len(keys)):
-        i = rows[j]
+    m = len(keys)
+    drawn = np.empty((4, m))  # B's x and z, the target's x and z
+    for j in range(m):
         base = rng.stream_base(keys[j], offset, np.uint64(0))
         distance = ball_distance_min + (ball_distance_max - ball_distance_min) * rng.lane(base, 0)
         line = np.pi * (2.0 * rng.lane(base, 1) - 1.0)
         target_distance = target_distance_min + (target_distance_max - target_distance_min) * rng.lane(base, 2)
         leave = line + bearing_max * (2.0 * rng.lane(base, 3) - 1.0)
+        sin_line, cos_line = vmath.sincos(line)
+        sin_leave, cos_leave = vmath.sincos(leave)
+        bx, bz = distance * cos_line, distance * sin_line
+        drawn[0, j], drawn[1, j] = bx, bz
+        drawn[2, j], drawn[3, j] = bx + target_distance * cos_leave, bz + target_distance * sin_leave
+    for j in range(m):
+        i = rows[j]
         ball_a[i, 0], ball_a[i, 1] = 0.0, 0.0
-        ball_b[i, 0], ball_b[i, 1] = distance * math.cos(line), distance * math.sin(line)
-        target[i, 0] = ball_b[i, 0] + target_distance * math.cos(leave)
-        target[i, 1] = ball_b[i, 1] + target_distance * math.sin(leave)
+        ball_b[i, 0], ball_b[i, 1] = drawn[0, j], drawn[1, j]
+        target[i, 0], target[i, 1] = drawn[2, j], drawn[3, j]
 
 
 @njit(cache=True, nogil=True)
@@ -213,7 +221,7 @@ def _step_kernel(
         distance = math.sqrt(ox * ox + oz * oz)
         along_x, along_z = ox / distance, oz / distance
         turn = -cut[i]
-        cos_t, sin_t = math.cos(turn), math.sin(turn)
+        sin_t, cos_t = vmath.sincos(turn)
         aim_x, aim_z = cos_t * along_x + sin_t * -along_z, cos_t * along_z + sin_t * along_x
         speed = 0.5 * (action[i, 1] + 1.0) * speed_max
         stop = speed * speed / (2.0 * deceleration)

@@ -12,7 +12,7 @@ from numba import njit
 from vegym import rng
 from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
 from vegym.params import Params, invalid, param
-from vegym.physics import projectile
+from vegym.physics import projectile, vmath
 from vegym.physics.particle import STANDARD_GRAVITY
 from vegym.physics.projectile import ProjectileParams
 
@@ -116,7 +116,7 @@ SHOT_COLUMNS = ("velocity_x", "velocity_y", "velocity_z", "flight_time", "miss_d
 miss (m) and the reward terms ``miss`` and ``hit``."""
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _start_kernel(
     keys: np.ndarray,
     rows: np.ndarray,
@@ -125,34 +125,39 @@ def _start_kernel(
     launch: np.ndarray,
     target: np.ndarray,
     wind: np.ndarray,
+    bearing: np.ndarray,
     landing: np.ndarray,
-    along: np.ndarray,
-    across: np.ndarray,
 ) -> None:
     """Fresh episodes of ``keys`` written in place into the rows ``rows`` of the state arrays ``launch`` to
-    ``landing`` ((n, 3), m and m/s; ``landing`` NaN: no shot yet), from 5 uniform lanes of each key's setup draw:
-    launch height, target distance and bearing, wind speed and direction. The target's offset from the launcher,
-    x and z (m), goes into ``along[j]`` and ``across[j]`` for its bearing (numpy's ``arctan2``, see
-    :meth:`ProjectileTask.target_bearing`). ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
-    for j in range(len(keys)):
-        i = rows[j]
+    ``landing`` ((n, 3), m and m/s, and ``bearing`` (n,), rad; ``landing`` NaN: no shot yet), from 5 uniform lanes
+    of each key's setup draw: launch height, target distance and bearing, wind speed and direction. ``c`` holds
+    the parameters named in ``STEP_CONSTANTS``.
+
+    Written as a pass over the keys that the compiler turns into SIMD code (the draws, into scratch rows) and a
+    pass that stores them into the state's rows (strided, and scattered)."""
+    m = len(keys)
+    drawn = np.empty((6, m))  # launch height, target x and z, bearing, wind x and z
+    for j in range(m):
         base = rng.stream_base(keys[j], offset, np.uint64(0))
         height = c[0] + (c[1] - c[0]) * rng.lane(base, 0)
         distance = c[2] + (c[3] - c[2]) * rng.lane(base, 1)
-        bearing = np.pi * (2.0 * rng.lane(base, 2) - 1.0)
+        direction = np.pi * (2.0 * rng.lane(base, 2) - 1.0)
         wind_speed = c[4] * rng.lane(base, 3)
-        wind_direction = np.pi * (2.0 * rng.lane(base, 4) - 1.0)
-        launch[i, 0], launch[i, 1], launch[i, 2] = 0.0, height, 0.0
-        target[i, 0], target[i, 1], target[i, 2] = distance * math.cos(bearing), 0.0, distance * math.sin(bearing)
-        wind[i, 0], wind[i, 1] = wind_speed * math.cos(wind_direction), 0.0
-        wind[i, 2] = wind_speed * math.sin(wind_direction)
+        sin_b, cos_b = vmath.sincos(direction)
+        sin_w, cos_w = vmath.sincos(np.pi * (2.0 * rng.lane(base, 4) - 1.0))
+        drawn[0, j], drawn[1, j], drawn[2, j] = height, distance * cos_b, distance * sin_b
+        drawn[3, j], drawn[4, j], drawn[5, j] = direction, wind_speed * cos_w, wind_speed * sin_w
+    for j in range(m):
+        i = rows[j]
+        launch[i, 0], launch[i, 1], launch[i, 2] = 0.0, drawn[0, j], 0.0
+        target[i, 0], target[i, 1], target[i, 2] = drawn[1, j], 0.0, drawn[2, j]
+        bearing[i] = drawn[3, j]
+        wind[i, 0], wind[i, 1], wind[i, 2] = drawn[4, j], 0.0, drawn[5, j]
         landing[i, 0], landing[i, 1], landing[i, 2] = np.nan, np.nan, np.nan
-        along[j], across[j] = target[i, 0] - launch[i, 0], target[i, 2] - launch[i, 2]
 
 
-@njit(cache=True, nogil=True, inline="always")
-def _shot_row(
-    i: int,
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _shoot(
     action: np.ndarray,
     launch: np.ndarray,
     target: np.ndarray,
@@ -164,31 +169,40 @@ def _shot_row(
     success: np.ndarray,
     reward: np.ndarray,
 ) -> None:
-    """Episode ``i``'s shot: its landing point (m, centre at y = radius) into the state's ``landing[i]``, the
-    ``SHOT_COLUMNS`` into ``shot[i]``, the hit flag into ``success[i]`` and the reward into ``reward[i]``.
-    ``bearing`` is the target's (rad); ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
+    """Every episode's shot: its landing point (m, centre at y = radius) into the state's ``landing``, the
+    ``SHOT_COLUMNS`` into the first columns of ``shot``, the hit flags into ``success`` and the rewards into
+    ``reward``. ``bearing`` is the target's (rad); ``c`` holds the parameters named in ``STEP_CONSTANTS``.
+
+    Written as a pass over the batch that the compiler turns into SIMD code (the shot, into 1-d scratch arrays:
+    separate arrays, since the compiler must check each written array against each read one) and a pass for the
+    reward terms and the strided stores."""
     target_distance_max, speed_min, speed_max, hit_radius, hit_bonus, gravity, radius = (
         c[3], c[5], c[6], c[7], c[8], c[9], c[10]
     )  # fmt: skip
-    speed = speed_min + 0.5 * (action[i, 2] + 1.0) * (speed_max - speed_min)
-    d = projectile.direction_one(ELEVATION_LIMIT * action[i, 0], bearing[i] + AZIMUTH_LIMIT * action[i, 1])
-    vx, vy, vz = speed * d[0], speed * d[1], speed * d[2]
-    x, z, flight_time = projectile.landing_one(
-        (launch[i, 0], launch[i, 1], launch[i, 2]), (vx, vy, vz), (wind[i, 0], wind[i, 1], wind[i, 2]), gravity,
-        radius,
-    )  # fmt: skip
-    landing[i, 0], landing[i, 1], landing[i, 2] = x, radius, z
-    miss = math.hypot(x - target[i, 0], z - target[i, 2])
-    hit = miss <= hit_radius
-    miss_term = -miss / target_distance_max
-    hit_term = hit_bonus * (1.0 - (miss / hit_radius) ** 2) if hit else 0.0
-    shot[i, 0], shot[i, 1], shot[i, 2], shot[i, 3], shot[i, 4] = vx, vy, vz, flight_time, miss
-    shot[i, 5], shot[i, 6] = miss_term, hit_term
-    success[i] = hit
-    reward[i] = miss_term + hit_term
+    n = len(action)
+    vx, vy, vz, flight_time = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    x, z, miss = np.empty(n), np.empty(n), np.empty(n)
+    for i in range(n):
+        speed = speed_min + 0.5 * (action[i, 2] + 1.0) * (speed_max - speed_min)
+        d = projectile.direction_one(ELEVATION_LIMIT * action[i, 0], bearing[i] + AZIMUTH_LIMIT * action[i, 1])
+        vx[i], vy[i], vz[i] = speed * d[0], speed * d[1], speed * d[2]
+        x[i], z[i], flight_time[i] = projectile.landing_one(
+            (launch[i, 0], launch[i, 1], launch[i, 2]), (vx[i], vy[i], vz[i]), (wind[i, 0], wind[i, 1], wind[i, 2]),
+            gravity, radius,
+        )  # fmt: skip
+        mx, mz = x[i] - target[i, 0], z[i] - target[i, 2]
+        miss[i] = math.sqrt(mx * mx + mz * mz)
+    for i in range(n):
+        hit = miss[i] <= hit_radius
+        miss_term = -miss[i] / target_distance_max
+        hit_term = hit_bonus * (1.0 - (miss[i] / hit_radius) ** 2) if hit else 0.0
+        success[i], reward[i] = hit, miss_term + hit_term
+        landing[i, 0], landing[i, 1], landing[i, 2] = x[i], radius, z[i]
+        shot[i, 0], shot[i, 1], shot[i, 2], shot[i, 3], shot[i, 4] = vx[i], vy[i], vz[i], flight_time[i], miss[i]
+        shot[i, 5], shot[i, 6] = miss_term, hit_term
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _step_kernel(
     action: np.ndarray,
     launch: np.ndarray,
@@ -203,43 +217,41 @@ def _step_kernel(
     terminated: np.ndarray,
     obs: np.ndarray,
 ) -> None:
-    """One shot per episode (:func:`_shot_row`) and the next observation, in place on the state's ``landing`` and
+    """One shot per episode (:func:`_shoot`) and the next observation, in place on the state's ``landing`` and
     into the outputs (``shot`` to ``obs``); every episode terminates. ``c`` holds the parameters named in
     ``STEP_CONSTANTS``."""
-    for i in range(len(action)):
-        _shot_row(i, action, launch, target, wind, bearing, landing, c, shot, success, reward)
-        terminated[i] = True
-        _observe_row(i, launch, target, wind, bearing, c, obs)
+    _shoot(action, launch, target, wind, bearing, landing, c, shot, success, reward)
+    terminated[:] = True
+    _observe(launch, target, wind, bearing, c, obs)
 
 
-@njit(cache=True, nogil=True, inline="always")
-def _observe_row(
-    i: int,
-    launch: np.ndarray,
-    target: np.ndarray,
-    wind: np.ndarray,
-    bearing: np.ndarray,
-    c: np.ndarray,
-    obs: np.ndarray,
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _observe(
+    launch: np.ndarray, target: np.ndarray, wind: np.ndarray, bearing: np.ndarray, c: np.ndarray, obs: np.ndarray
 ) -> None:
-    """Observation of episode ``i`` into ``obs[i]``, in the target frame (:meth:`ProjectileTask.target_frame`) of
-    the target's ``bearing`` (rad); ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
+    """Observations (n, 4) into ``obs``, in the target frame (:meth:`ProjectileTask.target_frame`) of the
+    target's ``bearing`` (rad); ``c`` holds the parameters named in ``STEP_CONSTANTS``. Written as a pass over
+    the batch that the compiler turns into SIMD code (into scratch rows) and a pass that stores the rows."""
     target_distance_max, height_scale, wind_scale = c[3], c[11], c[12]
-    dx, dz = target[i, 0] - launch[i, 0], target[i, 2] - launch[i, 2]
-    cos_b, sin_b = math.cos(bearing[i]), math.sin(bearing[i])
-    obs[i, 0] = math.hypot(dx, dz) / target_distance_max
-    obs[i, 1] = launch[i, 1] / height_scale
-    obs[i, 2] = (wind[i, 0] * cos_b + wind[i, 2] * sin_b) / wind_scale  # the wind is horizontal
-    obs[i, 3] = (wind[i, 0] * -sin_b + wind[i, 2] * cos_b) / wind_scale
+    n = len(bearing)
+    values = np.empty((4, n))
+    for i in range(n):
+        dx, dz = target[i, 0] - launch[i, 0], target[i, 2] - launch[i, 2]
+        sin_b, cos_b = vmath.sincos(bearing[i])
+        values[0, i] = math.sqrt(dx * dx + dz * dz) / target_distance_max
+        values[1, i] = launch[i, 1] / height_scale
+        values[2, i] = (wind[i, 0] * cos_b + wind[i, 2] * sin_b) / wind_scale  # the wind is horizontal
+        values[3, i] = (wind[i, 0] * -sin_b + wind[i, 2] * cos_b) / wind_scale
+    for i in range(n):
+        obs[i, 0], obs[i, 1], obs[i, 2], obs[i, 3] = values[0, i], values[1, i], values[2, i], values[3, i]
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _observe_kernel(
     launch: np.ndarray, target: np.ndarray, wind: np.ndarray, bearing: np.ndarray, c: np.ndarray, obs: np.ndarray
 ) -> None:
-    """Observations (n, 4) into ``obs`` (:func:`_observe_row`)."""
-    for i in range(len(bearing)):
-        _observe_row(i, launch, target, wind, bearing, c, obs)
+    """Observations (n, 4) into ``obs`` (:func:`_observe`)."""
+    _observe(launch, target, wind, bearing, c, obs)
 
 
 class ProjectileTask(Task[ProjectileEnvParams]):
@@ -269,21 +281,15 @@ class ProjectileTask(Task[ProjectileEnvParams]):
         return state
 
     def start(self, state: State, keys: np.ndarray, rows: np.ndarray) -> None:
-        bearing = state["bearing"]
-        along, across = np.empty(len(keys)), np.empty(len(keys))  # the targets' offsets (x, z) from the launchers
         _start_kernel(
             keys, rows, self._constants, self._offset, state["launch_position"], state["target"], state["wind"],
-            state["landing_point"], along, across,
+            state["bearing"], state["landing_point"],
         )  # fmt: skip
-        if len(keys) == len(bearing) == 1:  # a single env: the bearing straight into the state
-            np.arctan2(across, along, bearing)
-        else:
-            bearing[rows] = np.arctan2(across, along, along)
 
     @staticmethod
     def target_bearing(launch_position: np.ndarray, target: np.ndarray) -> np.ndarray:
-        """Book azimuth (rad, from +x toward +z) of each target (n, 3) seen from its launcher (n, 3), with numpy's
-        ``arctan2`` (libm's ``atan2``, which a kernel would call, differs from it by an ulp at times)."""
+        """Book azimuth (rad, from +x toward +z) of each target (n, 3) seen from its launcher (n, 3), by numpy's
+        ``arctan2``: within an ulp or so of the state's ``bearing``, the drawn one at which the target was placed."""
         return np.arctan2(target[:, 2] - launch_position[:, 2], target[:, 0] - launch_position[:, 0])
 
     @staticmethod

@@ -10,10 +10,10 @@ from gymnasium import spaces
 from numba import njit
 
 from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
-from vegym.envs.projectile import AZIMUTH_LIMIT, ELEVATION_LIMIT, ProjectileEnvParams, ProjectileTask, _shot_row
+from vegym.envs.projectile import AZIMUTH_LIMIT, ELEVATION_LIMIT, ProjectileEnvParams, ProjectileTask, _shoot
 from vegym.envs.projectile import SHOT_COLUMNS as PROJECTILE_SHOT_COLUMNS
 from vegym.params import invalid, param
-from vegym.physics import projectile
+from vegym.physics import projectile, vmath
 
 SHOT_FIELDS = 6
 """Observation entries per remembered shot: fired flag, miss along and across, and the shot's three actions."""
@@ -58,7 +58,7 @@ class ProjectileAdjustParams(ProjectileEnvParams):
         return self.wind_speed_max * self.longest_flight
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _step_kernel(
     action: np.ndarray,
     launch: np.ndarray,
@@ -77,44 +77,51 @@ def _step_kernel(
     terminated: np.ndarray,
     obs: np.ndarray,
 ) -> None:
-    """One shot per episode (Projectile-v0's, :func:`~vegym.envs.projectile._shot_row`, with ``shot_c`` its
+    """One shot per episode (Projectile-v0's, :func:`~vegym.envs.projectile._shoot`, with ``shot_c`` its
     constants) pushed onto the episode's memory (most recent first), and the next observation; in place on the
     state arrays (``landing`` to ``shots``) and into the outputs (``shot`` to ``obs``; ``shot`` holds the
     ``SHOT_COLUMNS``). The memory keeps the shot's miss (landing minus target, m) along and across the line of
-    fire of ``bearing`` (rad) and its action. ``c`` is as in :func:`_observe_row`."""
-    max_shots, memory = c[2], misses.shape[1]
-    for i in range(len(action)):
-        _shot_row(i, action, launch, target, wind, bearing, landing, shot_c, shot, success, reward)
-        cos_b, sin_b = math.cos(bearing[i]), math.sin(bearing[i])
+    fire of ``bearing`` (rad) and its action. ``c`` is as in :func:`_observe`.
+
+    Written as passes over the batch: the shot, the miss in the target frame (SIMD code), the memory's shift
+    (the batch loop innermost), the newest entry and the observation."""
+    max_shots, memory, n = c[2], misses.shape[1], len(action)
+    _shoot(action, launch, target, wind, bearing, landing, shot_c, shot, success, reward)
+    along, across = np.empty(n), np.empty(n)
+    for i in range(n):
+        sin_b, cos_b = vmath.sincos(bearing[i])
         dx, dy, dz = landing[i, 0] - target[i, 0], landing[i, 1] - target[i, 1], landing[i, 2] - target[i, 2]
-        along = dx * cos_b + dy * 0.0 + dz * sin_b  # the frame's unit vectors are horizontal
-        across = dx * -sin_b + dy * 0.0 + dz * cos_b
-        for k in range(memory - 1, 0, -1):
+        along[i] = dx * cos_b + dy * 0.0 + dz * sin_b  # the frame's unit vectors are horizontal
+        across[i] = dx * -sin_b + dy * 0.0 + dz * cos_b
+        shots[i] += 1
+        terminated[i] = success[i] | (shots[i] >= max_shots)
+    for k in range(memory - 1, 0, -1):
+        for i in range(n):
             misses[i, k, 0], misses[i, k, 1] = misses[i, k - 1, 0], misses[i, k - 1, 1]
             actions[i, k, 0], actions[i, k, 1], actions[i, k, 2] = (
                 actions[i, k - 1, 0], actions[i, k - 1, 1], actions[i, k - 1, 2]
             )  # fmt: skip
-        misses[i, 0, 0], misses[i, 0, 1] = along, across
-        shot[i, -2], shot[i, -1] = along, across
+    for i in range(n):
+        misses[i, 0, 0], misses[i, 0, 1] = along[i], across[i]
+        shot[i, -2], shot[i, -1] = along[i], across[i]
         actions[i, 0, 0], actions[i, 0, 1], actions[i, 0, 2] = action[i, 0], action[i, 1], action[i, 2]
-        shots[i] += 1
-        terminated[i] = success[i] or shots[i] >= max_shots
-        _observe_row(i, launch, target, misses, actions, shots, c, obs)
+    _observe(launch, target, misses, actions, shots, c, obs)
 
 
 @njit(cache=True, nogil=True)
 def _clear_kernel(rows: np.ndarray, misses: np.ndarray, actions: np.ndarray, shots: np.ndarray) -> None:
     """Empty the shot memory of the rows ``rows``, in place."""
+    for k in range(misses.shape[1]):
+        for j in range(len(rows)):
+            i = rows[j]
+            misses[i, k, 0], misses[i, k, 1] = 0.0, 0.0
+            actions[i, k, 0], actions[i, k, 1], actions[i, k, 2] = 0.0, 0.0, 0.0
     for j in range(len(rows)):
-        i = rows[j]
-        misses[i] = 0.0
-        actions[i] = 0.0
-        shots[i] = 0
+        shots[rows[j]] = 0
 
 
-@njit(cache=True, nogil=True, inline="always")
-def _observe_row(
-    i: int,
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _observe(
     launch: np.ndarray,
     target: np.ndarray,
     misses: np.ndarray,
@@ -123,21 +130,29 @@ def _observe_row(
     c: np.ndarray,
     obs: np.ndarray,
 ) -> None:
-    """Observation of episode ``i`` (3 + memory * SHOT_FIELDS) into ``obs[i]``; ``c = (target_distance_max,
-    height_scale, max_shots, miss_scale)``."""
+    """Observations (n, 3 + memory * SHOT_FIELDS) into ``obs``; ``c = (target_distance_max, height_scale,
+    max_shots, miss_scale)``. Written as passes over the batch: the first three entries (SIMD code, into scratch
+    arrays), their strided stores, and one pass per remembered shot."""
     target_distance_max, height_scale, max_shots, miss_scale = c[0], c[1], c[2], c[3]
-    obs[i, 0] = math.hypot(target[i, 0] - launch[i, 0], target[i, 2] - launch[i, 2]) / target_distance_max
-    obs[i, 1] = launch[i, 1] / height_scale
-    obs[i, 2] = shots[i] / max_shots
+    n = len(shots)
+    distance, height, fired = np.empty(n), np.empty(n), np.empty(n)
+    for i in range(n):
+        dx, dz = target[i, 0] - launch[i, 0], target[i, 2] - launch[i, 2]
+        distance[i] = math.sqrt(dx * dx + dz * dz) / target_distance_max
+        height[i] = launch[i, 1] / height_scale
+        fired[i] = shots[i] / max_shots
+    for i in range(n):
+        obs[i, 0], obs[i, 1], obs[i, 2] = distance[i], height[i], fired[i]
     for k in range(misses.shape[1]):
         j = 3 + k * SHOT_FIELDS
-        obs[i, j] = 1.0 if k < shots[i] else 0.0
-        obs[i, j + 1] = min(max(misses[i, k, 0] / miss_scale, -1.0), 1.0)
-        obs[i, j + 2] = min(max(misses[i, k, 1] / miss_scale, -1.0), 1.0)
-        obs[i, j + 3], obs[i, j + 4], obs[i, j + 5] = actions[i, k, 0], actions[i, k, 1], actions[i, k, 2]
+        for i in range(n):
+            obs[i, j] = 1.0 if k < shots[i] else 0.0
+            obs[i, j + 1] = min(max(misses[i, k, 0] / miss_scale, -1.0), 1.0)
+            obs[i, j + 2] = min(max(misses[i, k, 1] / miss_scale, -1.0), 1.0)
+            obs[i, j + 3], obs[i, j + 4], obs[i, j + 5] = actions[i, k, 0], actions[i, k, 1], actions[i, k, 2]
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _observe_kernel(
     launch: np.ndarray,
     target: np.ndarray,
@@ -147,9 +162,8 @@ def _observe_kernel(
     c: np.ndarray,
     obs: np.ndarray,
 ) -> None:
-    """Observations (n, 3 + memory * SHOT_FIELDS) into ``obs`` (:func:`_observe_row`)."""
-    for i in range(len(shots)):
-        _observe_row(i, launch, target, misses, actions, shots, c, obs)
+    """Observations (n, 3 + memory * SHOT_FIELDS) into ``obs`` (:func:`_observe`)."""
+    _observe(launch, target, misses, actions, shots, c, obs)
 
 
 class ProjectileAdjustTask(Task[ProjectileAdjustParams]):

@@ -39,7 +39,7 @@ def _rows(vectors: list[np.ndarray], scalars: list[np.ndarray | float]) -> tuple
     return shape, rows, columns
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def dot_one(a: np.ndarray, b: np.ndarray) -> float:
     """``a . b`` of two (d,) vectors, summed in ``np.sum``'s order."""
     total = 0.0
@@ -48,7 +48,7 @@ def dot_one(a: np.ndarray, b: np.ndarray) -> float:
     return total
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def impact_one(
     c_a: np.ndarray,
     c_b: np.ndarray,
@@ -76,7 +76,7 @@ def impact_one(
         u_a[k], u_b[k] = v_a[k] - impulse / mass_a * n, v_b[k] + impulse / mass_b * n
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def first_contact_one(c_a: np.ndarray, direction: np.ndarray, c_b: np.ndarray, contact_distance: float) -> float:
     """:func:`first_contact` of one sphere ((d,) vectors, m); ``+inf`` if it never touches."""
     b, square = 0.0, 0.0
@@ -87,7 +87,7 @@ def first_contact_one(c_a: np.ndarray, direction: np.ndarray, c_b: np.ndarray, c
     return max(b - math.sqrt(disc), 0.0) if disc >= 0.0 and b > 0.0 else math.inf
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def slide_one(position: np.ndarray, velocity: np.ndarray, deceleration: float, rest: np.ndarray) -> tuple[float, float]:
     """:func:`slide` of one ball ((d,) vectors, SI): rest point written into ``rest``; distance and time returned."""
     speed = math.sqrt(dot_one(velocity, velocity))

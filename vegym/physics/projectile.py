@@ -13,13 +13,13 @@ gravity a positive magnitude. The wind is a kinematic drift (the chapter's model
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
 
 from vegym.params import Params, param
+from vegym.physics import vmath
 from vegym.physics.columns import flat_columns
 from vegym.physics.particle import STANDARD_GRAVITY, ground_time_one, time_to_ground
 
@@ -37,12 +37,14 @@ class ProjectileParams(Params):
         return np.array([0.0, -self.gravity, 0.0])
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", inline="always")
 def direction_one(elevation: float, azimuth: float) -> tuple[float, float, float]:
     """Unit launch direction ``(cos(el) cos(az), sin(el), cos(el) sin(az))`` from angles in radians (scalars); the
-    one compiled form that :func:`launch_direction` and Projectile-v0's kernel run."""
-    cos_el = math.cos(elevation)
-    return cos_el * math.cos(azimuth), math.sin(elevation), cos_el * math.sin(azimuth)
+    one compiled form that :func:`launch_direction` and Projectile-v0's kernel run (:func:`~vegym.physics.vmath.sincos`,
+    branch-free, so that the kernel's loop compiles to SIMD code)."""
+    sin_el, cos_el = vmath.sincos(elevation)
+    sin_az, cos_az = vmath.sincos(azimuth)
+    return cos_el * cos_az, sin_el, cos_el * sin_az
 
 
 @njit(cache=True)
