@@ -100,6 +100,31 @@ def test_controller_from_the_observation_is_the_physics_autopilot_on_the_true_st
         obs, *_ = env.step(action)
 
 
+def test_step_flies_the_physics_step_bit_for_bit_envelope_cuts_included() -> None:
+    """The step kernel's passes fly exactly :func:`aircraft.step` on the saturated commands with the draft as the
+    vertical wind, where the speed limits, the floor and the ceiling cut and with a horizontal wind."""
+    params = AircraftEnvParams(
+        draft_max=20.0, wind_x=3.0, wind_z=-2.0, floor_altitude=900.0, altitude_min=950.0, ceiling_altitude=1700.0,
+        dt=2.5,
+    )  # fmt: skip
+    task = AircraftTask(params)
+    n, random = 256, np.random.default_rng(9)
+    keys = rng.seed_keys(np.arange(n))
+    state = owned({**task.initial_state(keys), "key": keys, "step": np.zeros(n, dtype=np.int64)})
+    for _ in range(100):
+        action = random.choice([-1.0, -0.3, 0.0, 0.5, 1.0], (n, 3))
+        before = aircraft.AircraftState(*(np.copy(a) for a in task.aircraft_state(state)))
+        command = aircraft.command_from_action(action, task.physics)
+        expected, climb = aircraft.step(before, command, params.dt, task.physics, state["draft"])
+        task.step(state, action, task.outputs(n))
+        for field, value in zip(aircraft.AircraftState._fields, expected, strict=True):
+            assert np.array_equal(getattr(task.aircraft_state(state), field), value), field
+        assert np.array_equal(state["vertical_speed"], climb)
+        state["step"] += 1
+    altitude, speed = state["position"][:, 1], state["speed"]  # some aircraft end on each limit
+    assert (altitude == 900.0).any() and (altitude == 1700.0).any() and (speed == 60.0).any() and (speed == 200.0).any()
+
+
 def test_task_on_any_subset_of_a_batch_gives_exactly_those_rows() -> None:
     """What mixed resets rely on: a sub-batch (the sub-envs not resetting) steps exactly as in the full batch."""
     params = AircraftEnvParams(draft_max=4.0, gust_amplitude=2.0, change_interval_min=3.0, change_interval_max=6.0)

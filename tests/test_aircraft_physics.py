@@ -126,6 +126,26 @@ def test_heading_is_always_wrapped() -> None:
     assert wrapped[0] == -math.pi
 
 
+def test_wrap_is_the_floor_formula_bit_for_bit() -> None:
+    """The branch-free wrap equals ``a - 2 pi floor((a + pi) / 2 pi)`` with -pi for round-off onto pi, evaluated
+    by Python (exact integer floor), on random angles, huge ones and the neighbourhoods of the jumps."""
+    rng = np.random.default_rng(5)
+    pieces = [rng.uniform(-10 * np.pi, 10 * np.pi, 100_000), rng.uniform(-1e15, 1e15, 20_000)]
+    pieces.append(np.ldexp(rng.uniform(-1.0, 1.0, 20_000), rng.integers(-1074, 1023, 20_000)))
+    for m in range(-4, 4):  # around the odd multiples of pi, where the wrap jumps
+        edge = (2 * m + 1) * np.pi
+        pieces.append(edge + rng.integers(-2000, 2000, 10_000) * np.spacing(edge))
+    edges = [0.0, -0.0, math.pi, -math.pi, 2 * math.pi, math.nextafter(math.pi, 0.0), math.nextafter(-math.pi, -4.0)]
+    x = np.concatenate([*pieces, edges, [5e-324, -5e-324, 1e300, -1e300]])
+
+    def reference(a: float) -> float:
+        wrapped = a - 2.0 * math.pi * math.floor((a + math.pi) / (2.0 * math.pi))
+        return max(-math.pi if wrapped >= math.pi else wrapped, -math.pi)
+
+    expected = np.array([reference(a) for a in x])
+    np.testing.assert_array_equal(aircraft.wrap(x).view(np.int64), expected.view(np.int64))
+
+
 def test_actions_map_asymmetrically_onto_the_saturation_box() -> None:
     commands = aircraft.command_from_action(np.array([[1.0, 1.0, 1.0], [-1.0, -1.0, -1.0], [0.5, -0.5, 0.0]]), PARAMS)
     np.testing.assert_allclose(commands[0], [1.5, 15.0, aircraft.STANDARD_RATE])

@@ -13,7 +13,7 @@ from vegym import rng
 from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
 from vegym.envs.schedule import ScheduledParams
 from vegym.params import Params, invalid, param
-from vegym.physics import aircraft
+from vegym.physics import aircraft, vmath
 from vegym.physics.aircraft import STANDARD_RATE, AircraftParams, AircraftState
 
 _SETUP_STREAM = 1
@@ -129,7 +129,7 @@ REWARD_TERMS = ("altitude", "speed", "heading", "effort")
 """Names of ``info["reward_terms"]``, in the order of the step kernel's ``terms`` columns."""
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _step_kernel(
     action: np.ndarray,
     key: np.ndarray,
@@ -153,81 +153,114 @@ def _step_kernel(
     terminated: np.ndarray,
     obs: np.ndarray,
 ) -> int:
-    """The whole step and the next observation, fused per episode, in place on the state arrays (``position`` to
+    """The whole step and the next observation, in place on the state arrays (``position`` to
     ``vertical_speed``) and into the outputs (``flown``, the demand of the step, to ``obs``); ``c`` holds the
     parameters named in ``STEP_CONSTANTS``, in that order. The vertical wind is the episode's ``draft`` plus,
     when ``gust_amplitude > 0``, a gust uniform in +-gust_amplitude drawn from the key's stream ``gust_offset``
     at counter ``step``. Returns how many episodes have a demand change due at the new step (the caller advances
-    the schedule and observes again then; ``obs`` shows the demand before the change)."""
+    the schedule and observes again then; ``obs`` shows the demand before the change).
+
+    Written as passes over the batch that the compiler turns into SIMD code (loops without calls or exits): the
+    gusts, the commands, the flight, the errors with the reward, the observation, the count of changes due. The
+    2-D arrays (C-contiguous) are indexed through flat views, whose constant strides vectorise (``a[i, k]`` does
+    not); no pass makes more than 16 such strided accesses, and the scratch arrays are separate allocations
+    (rows of one array would overlap as far as the compiler can tell): either keeps a loop scalar.
+    """
+    n = len(action)
     high = (c[0], c[2], c[4])  # A_acc, V_cli, M: the upper command limits and the scales of positive actions
     envelope = (c[13], c[14], c[17], c[18], c[19], c[20])  # aircraft.envelope: speeds, floor, ceiling, wind
     low = (-c[1], -c[3], -c[4])
     dt, altitude_scale, speed_scale, effort_weight = c[5], c[6], c[7], c[8]
     altitude_tolerance, speed_tolerance, heading_tolerance, gust = c[9], c[10], c[11], c[12]
-    due = 0
-    for i in range(len(action)):
-        for j in range(3):
-            u = action[i, j]
-            command[i, j] = min(max(u * (high[j] if u >= 0.0 else -low[j]), low[j]), high[j])
-        applied = (command[i, 0], command[i, 1], command[i, 2])
-        vertical_wind = draft[i]
-        if gust > 0.0:
+    wind = draft
+    if gust > 0.0:
+        wind = np.empty(n)
+        for i in range(n):
             base = rng.stream_base(key[i], gust_offset, np.uint64(step[i]))
-            vertical_wind = vertical_wind + (-gust + (gust + gust) * rng.lane(base, 0))
-        y0 = position[i, 1]
+            wind[i] = draft[i] + (-gust + (gust + gust) * rng.lane(base, 0))
+    u, p, d, applied = action.reshape(3 * n), position.reshape(3 * n), demand.reshape(3 * n), command.reshape(3 * n)
+    e, demanded, t, o = errors.reshape(3 * n), flown.reshape(3 * n), terms.reshape(4 * n), obs.reshape(8 * n)
+    accel, climb, turn, effort = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    for i in range(n):  # the commands
+        u0, u1, u2 = u[3 * i], u[3 * i + 1], u[3 * i + 2]
+        a = min(max(u0 * (high[0] if u0 >= 0.0 else -low[0]), low[0]), high[0])
+        b = min(max(u1 * (high[1] if u1 >= 0.0 else -low[1]), low[1]), high[1])
+        w = min(max(u2 * (high[2] if u2 >= 0.0 else -low[2]), low[2]), high[2])
+        accel[i], climb[i], turn[i] = a, b, w
+        applied[3 * i], applied[3 * i + 1], applied[3 * i + 2] = a, b, w
+        effort[i] = -effort_weight / 3.0 * (u0 * u0 + u1 * u1 + u2 * u2)
+    for i in range(n):  # the flight
+        y0, applied_i = p[3 * i + 1], (accel[i], climb[i], turn[i])
         x, y, z, v, psi = aircraft.fly(
-            position[i, 0], y0, position[i, 2], speed[i], heading[i], applied, vertical_wind, dt, envelope, False
+            p[3 * i], y0, p[3 * i + 2], speed[i], heading[i], applied_i, wind[i], dt, envelope, False
         )
-        position[i, 0], position[i, 1], position[i, 2] = x, y, z
+        p[3 * i], p[3 * i + 1], p[3 * i + 2] = x, y, z
         speed[i], heading[i], vertical_speed[i] = v, psi, (y - y0) / dt
-        e0, e1, e2 = demand[i, 0] - y, demand[i, 1] - v, aircraft.wrap_angle(demand[i, 2] - psi)
-        errors[i, 0], errors[i, 1], errors[i, 2] = e0, e1, e2
-        flown[i, 0], flown[i, 1], flown[i, 2] = demand[i, 0], demand[i, 1], demand[i, 2]
-        effort = action[i, 0] * action[i, 0] + action[i, 1] * action[i, 1] + action[i, 2] * action[i, 2]
-        terms[i, 0] = -abs(min(max(e0 / altitude_scale, -1.0), 1.0)) / 3.0
-        terms[i, 1] = -abs(min(max(e1 / speed_scale, -1.0), 1.0)) / 3.0
-        terms[i, 2] = -abs(e2) / (3.0 * np.pi)
-        terms[i, 3] = -effort_weight / 3.0 * effort
-        reward[i] = terms[i, 0] + terms[i, 1] + terms[i, 2] + terms[i, 3]
-        success[i] = abs(e0) <= altitude_tolerance and abs(e1) <= speed_tolerance and abs(e2) <= heading_tolerance
+    for i in range(n):  # the errors, reward and success
+        d0, d1, d2 = d[3 * i], d[3 * i + 1], d[3 * i + 2]
+        e0, e1, e2 = d0 - p[3 * i + 1], d1 - speed[i], aircraft.wrap_angle(d2 - heading[i])
+        e[3 * i], e[3 * i + 1], e[3 * i + 2] = e0, e1, e2
+        demanded[3 * i], demanded[3 * i + 1], demanded[3 * i + 2] = d0, d1, d2
+        t0 = -abs(min(max(e0 / altitude_scale, -1.0), 1.0)) / 3.0
+        t1 = -abs(min(max(e1 / speed_scale, -1.0), 1.0)) / 3.0
+        t2 = -abs(e2) / (3.0 * np.pi)
+        t3 = effort[i]
+        t[4 * i], t[4 * i + 1], t[4 * i + 2], t[4 * i + 3] = t0, t1, t2, t3
+        reward[i] = t0 + t1 + t2 + t3
+        success[i] = (abs(e0) <= altitude_tolerance) & (abs(e1) <= speed_tolerance) & (abs(e2) <= heading_tolerance)
         terminated[i] = False
-        now = step[i] + 1
-        if now >= next_change[i]:
-            due += 1
-        _observe_row(i, now, position, speed, heading, command, vertical_speed, demand, last_change, c, obs)
+    scales = _scales(c)
+    for i in range(n):  # the observation
+        values = _observation(
+            step[i] + 1, p[3 * i + 1], speed[i], heading[i], climb[i], vertical_speed[i], d[3 * i], d[3 * i + 1],
+            d[3 * i + 2], last_change[i], scales,
+        )  # fmt: skip
+        o[8 * i], o[8 * i + 1], o[8 * i + 2], o[8 * i + 3] = values[0], values[1], values[2], values[3]
+        o[8 * i + 4], o[8 * i + 5], o[8 * i + 6], o[8 * i + 7] = values[4], values[5], values[6], values[7]
+    due = 0
+    for i in range(n):  # the demand changes due at the new step
+        due += step[i] + 1 >= next_change[i]
     return due
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _observe_row(
-    i: int,
+def _scales(c: np.ndarray) -> tuple[float, float, float, float, float, float, float]:
+    """The parameters :func:`_observation` reads, from the constants ``c`` named in ``STEP_CONSTANTS``: ``dt``,
+    ``altitude_scale``, ``speed_scale``, ``min_speed``, ``max_speed``, ``vertical_speed_scale`` and
+    ``change_interval_max``."""
+    return c[5], c[6], c[7], c[13], c[14], c[15], c[16]
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _observation(
     now: int,
-    position: np.ndarray,
-    speed: np.ndarray,
-    heading: np.ndarray,
-    command: np.ndarray,
-    vertical_speed: np.ndarray,
-    demand: np.ndarray,
-    last_change: np.ndarray,
-    c: np.ndarray,
-    obs: np.ndarray,
-) -> None:
-    """Observation of episode ``i`` at step ``now`` into ``obs[i]``; ``c`` holds the parameters named in
-    ``STEP_CONSTANTS``."""
-    dt, altitude_scale, speed_scale = c[5], c[6], c[7]
-    min_speed, max_speed, vertical_speed_scale, interval_max = c[13], c[14], c[15], c[16]
-    heading_error = demand[i, 2] - heading[i]  # only its sine and cosine are observed: no wrap needed
-    obs[i, 0] = min(max((demand[i, 0] - position[i, 1]) / altitude_scale, -1.0), 1.0)
-    obs[i, 1] = min(max((demand[i, 1] - speed[i]) / speed_scale, -1.0), 1.0)
-    obs[i, 2] = math.sin(heading_error)
-    obs[i, 3] = math.cos(heading_error)
-    obs[i, 4] = (speed[i] - min_speed) / (max_speed - min_speed)
-    obs[i, 5] = min(max(vertical_speed[i] / vertical_speed_scale, -1.0), 1.0)
-    obs[i, 6] = command[i, 1] / vertical_speed_scale
-    obs[i, 7] = min((now - last_change[i]) * (dt / interval_max), 1.0)
+    altitude: float,
+    speed: float,
+    heading: float,
+    climb_command: float,
+    vertical_speed: float,
+    demand_altitude: float,
+    demand_speed: float,
+    demand_heading: float,
+    last_change: int,
+    scales: tuple[float, float, float, float, float, float, float],
+) -> tuple[float, float, float, float, float, float, float, float]:
+    """Observation (8 entries) of one episode at step ``now``; ``scales`` from :func:`_scales`."""
+    dt, altitude_scale, speed_scale, min_speed, max_speed, vertical_speed_scale, interval_max = scales
+    sine, cosine = vmath.sincos(demand_heading - heading)  # heading error: no wrap needed for its sine and cosine
+    return (
+        min(max((demand_altitude - altitude) / altitude_scale, -1.0), 1.0),
+        min(max((demand_speed - speed) / speed_scale, -1.0), 1.0),
+        sine,
+        cosine,
+        (speed - min_speed) / (max_speed - min_speed),
+        min(max(vertical_speed / vertical_speed_scale, -1.0), 1.0),
+        climb_command / vertical_speed_scale,
+        min((now - last_change) * (dt / interval_max), 1.0),
+    )
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _observe_kernel(
     rows: np.ndarray,
     step: np.ndarray,
@@ -244,8 +277,14 @@ def _observe_kernel(
 ) -> None:
     """Observations (8,) of the episodes ``rows`` (int indices) at steps ``step + ahead`` into those rows of
     ``obs``; ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
+    scales = _scales(c)
     for i in rows:
-        _observe_row(i, step[i] + ahead, position, speed, heading, command, vertical_speed, demand, last_change, c, obs)
+        values = _observation(
+            step[i] + ahead, position[i, 1], speed[i], heading[i], command[i, 1], vertical_speed[i], demand[i, 0],
+            demand[i, 1], demand[i, 2], last_change[i], scales,
+        )  # fmt: skip
+        for k in range(8):
+            obs[i, k] = values[k]
 
 
 class AircraftTask(Task[AircraftEnvParams]):

@@ -35,6 +35,7 @@ import numpy as np
 from numba import njit
 
 from vegym.params import Params, invalid, param
+from vegym.physics import vmath
 from vegym.physics.columns import flat_columns
 
 STANDARD_RATE = math.radians(3.0)
@@ -101,10 +102,11 @@ class AircraftState(NamedTuple):
     command: np.ndarray
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def wrap_angle(angle: float) -> float:
-    """One angle wrapped to [-pi, pi) (rad): ``a - 2 pi floor((a + pi) / 2 pi)``, round-off at the ends to -pi."""
-    wrapped = angle - _TWO_PI * math.floor((angle + math.pi) / _TWO_PI)
+    """One angle wrapped to [-pi, pi) (rad): ``a - 2 pi floor((a + pi) / 2 pi)``, round-off at the ends to -pi.
+    Branch-free (a float floor and selects), so that a loop over a batch compiles to SIMD code."""
+    wrapped = angle - _TWO_PI * np.floor((angle + math.pi) / _TWO_PI)
     return max(-math.pi if wrapped >= math.pi else wrapped, -math.pi)
 
 
@@ -160,7 +162,7 @@ def saturate(command: np.ndarray, speed: np.ndarray, dt: float, params: Aircraft
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def fly(
     x: float,
     y: float,
@@ -176,7 +178,9 @@ def fly(
     """One aircraft, one step of ``dt`` s under the applied ``command = (a, v_y, omega or v_x)``, in scalars.
 
     ``envelope = (v_min, v_max, floor, ceiling, wind_x, wind_z)``; returns ``(x', y', z', v', psi')`` (SI, rad).
-    The one compiled form of the model: :func:`step` loops over it and Aircraft-v0's step kernel inlines it.
+    The one compiled form of the model: :func:`step` loops over it and Aircraft-v0's step kernel inlines it. The
+    clean model is branch-free (sine and cosine by :func:`vmath.sincos`), so a loop over a batch of it compiles
+    to SIMD code.
     """
     accel, climb, turn = command
     min_speed, max_speed, floor, ceiling, wind_x, wind_z = envelope
@@ -188,12 +192,13 @@ def fly(
     else:
         dpsi = turn * dt
         half_turn = np.pi * (0.5 * dpsi / np.pi)  # np.sinc's argument, so the chord rounds as np.sinc does
-        chord = distance * (math.sin(half_turn) / half_turn if half_turn != 0.0 else 1.0)
+        chord = distance * (vmath.sincos(half_turn)[0] / half_turn if half_turn != 0.0 else 1.0)
         course = psi + 0.5 * dpsi
+    sine, cosine = vmath.sincos(course)
     return (
-        x + chord * math.sin(course) + wind_x * dt,
+        x + chord * sine + wind_x * dt,
         min(max(y + (climb + vertical_wind) * dt, floor), ceiling),
-        z + chord * math.cos(course) + wind_z * dt,
+        z + chord * cosine + wind_z * dt,
         v_new,
         wrap_angle(psi + dpsi),
     )
