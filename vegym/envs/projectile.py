@@ -180,8 +180,9 @@ def _shoot(
         c[3], c[5], c[6], c[7], c[8], c[9], c[10]
     )  # fmt: skip
     n = len(action)
-    vx, vy, vz, flight_time = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
-    x, z, miss = np.empty(n), np.empty(n), np.empty(n)
+    scratch = np.empty(7 * n)
+    vx, vy, vz, flight_time = scratch[:n], scratch[n : 2 * n], scratch[2 * n : 3 * n], scratch[3 * n : 4 * n]
+    x, z, miss = scratch[4 * n : 5 * n], scratch[5 * n : 6 * n], scratch[6 * n :]
     for i in range(n):
         speed = speed_min + 0.5 * (action[i, 2] + 1.0) * (speed_max - speed_min)
         d = projectile.direction_one(ELEVATION_LIMIT * action[i, 0], bearing[i] + AZIMUTH_LIMIT * action[i, 1])
