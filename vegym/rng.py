@@ -20,7 +20,7 @@ _NEXT_EPISODE = np.uint64(0xD1B54A32D192ED03)
 _TO_UNIT = 2.0**-53
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _mix_one(z: np.uint64) -> np.uint64:
     """SplitMix64 finaliser of one uint64 (wrapping arithmetic)."""
     z = (z ^ (z >> _S30)) * _M1
@@ -64,13 +64,13 @@ def advance(keys: np.ndarray) -> None:
     _advance_each(keys)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def stream_base(key: np.uint64, stream_offset: np.uint64, counter: np.uint64) -> np.uint64:
     """The mixed state that the lanes of one draw (one key, stream and counter) are taken from (uint64 scalars)."""
     return _mix_one(key * _GOLDEN + stream_offset + counter * _M2)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def lane(base: np.uint64, j: int) -> float:
     """Lane ``j`` of a draw from :func:`stream_base`: a float in [0, 1)."""
     return np.float64(_mix_one(base + np.uint64(j + 1) * _GOLDEN) >> _S11) * _TO_UNIT
