@@ -11,7 +11,7 @@ from numba import njit
 from vegym.physics import vmath
 
 
-@njit(cache=True)
+@njit
 def _sincos_each(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     s, c = np.empty(x.size), np.empty(x.size)
     for i in range(x.size):
@@ -19,7 +19,7 @@ def _sincos_each(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return s, c
 
 
-@njit(cache=True)
+@njit
 def _libm_each(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     s, c = np.empty(x.size), np.empty(x.size)
     for i in range(x.size):
@@ -27,7 +27,7 @@ def _libm_each(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return s, c
 
 
-@njit(cache=True)
+@njit
 def _wraps(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """vmath.wrap_angle and the formula it stands for, ``(a + pi) % 2 pi - pi`` with Python's modulo (fmod)."""
     a, b = np.empty(x.size), np.empty(x.size)
@@ -75,3 +75,22 @@ def test_wrap_angle_stays_within_an_ulp_of_the_argument_beyond() -> None:
     x = np.random.default_rng(2).uniform(-1e4, 1e4, 100_000)
     wrapped, reference = _wraps(x)
     assert np.all(np.abs(wrapped - reference) <= np.spacing(np.abs(x)))
+
+
+@njit
+def _acos_each(x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    a, b = np.empty(x.size), np.empty(x.size)
+    for i in range(x.size):
+        a[i], b[i] = vmath.acos(x[i]), math.acos(x[i])
+    return a, b
+
+
+def test_acos_is_within_one_ulp_of_libm_and_exact_at_the_ends() -> None:
+    rng = np.random.default_rng(3)
+    ends = [1.0 - rng.uniform(0.0, 1e-6, 20_000), -1.0 + rng.uniform(0.0, 1e-6, 20_000)]
+    edges = [0.5, -0.5, np.nextafter(0.5, 0.0), np.nextafter(-0.5, 0.0), 0.0, -0.0, 1e-300, np.nextafter(1.0, 0.0)]
+    x = np.concatenate([rng.uniform(-1.0, 1.0, 500_000), rng.uniform(-1e-9, 1e-9, 10_000), *ends, edges])
+    angle, reference = _acos_each(x)
+    assert _ulps(angle, reference).max() <= 1
+    ends_angle, _ = _acos_each(np.array([1.0, -1.0, 1.5]))
+    assert ends_angle[0] == 0.0 and ends_angle[1] == np.pi and np.isnan(ends_angle[2])

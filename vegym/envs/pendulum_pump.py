@@ -101,8 +101,8 @@ def _step_kernel(
     written here show the target before the change).
 
     Written as passes over the batch that the compiler turns into SIMD code: the substeps (each a pass over the
-    state in scratch arrays), the energies and the terms; the amplitude's arccos (a libm call) and the strided
-    stores of the terms and observations in passes of their own."""
+    state in scratch arrays), the energies, the amplitudes and the terms; the strided stores of the terms and
+    observations in a pass of its own."""
     max_torque, dt, h, substeps = c[0], c[1], c[2], int(c[3])
     g_over_l, damping, inertia, weight_moment = c[4], c[5], c[6], c[7]
     effort_weight, success_tolerance = c[8], c[9]
@@ -125,9 +125,8 @@ def _step_kernel(
         target_energy[i] = pendulum.energy_of(target[i], 0.0, inertia, weight_moment)
         terminated[i] = False
         changing |= step[i] + 1 >= next_change[i]
-    for i in range(n):  # arccos: a libm call
-        amplitude[i] = pendulum.amplitude_of(energy[i], weight_moment)
     for i in range(n):
+        amplitude[i] = pendulum.amplitude_of(energy[i], weight_moment)
         error = amplitude[i] - target[i]
         tracking[i] = -dt * abs(error) / np.pi
         effort[i] = -effort_weight * dt * action[i, 0] ** 2

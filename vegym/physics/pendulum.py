@@ -93,10 +93,11 @@ def energy_from_cos(cos_theta: float, omega: float, inertia: float, weight_momen
     return 0.5 * inertia * omega * omega + weight_moment * (1.0 - cos_theta)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always", error_model="numpy")
 def amplitude_of(energy_: float, weight_moment: float) -> float:
-    """One swing's amplitude ``arccos(clip(1 - E / (m g L), -1, 1))`` (rad), in scalars."""
-    return math.acos(min(max(1.0 - energy_ / weight_moment, -1.0), 1.0))
+    """One swing's amplitude ``arccos(clip(1 - E / (m g L), -1, 1))`` (rad), in scalars (branch-free:
+    :func:`vmath.acos`)."""
+    return vmath.acos(min(max(1.0 - energy_ / weight_moment, -1.0), 1.0))
 
 
 @njit(cache=True)
