@@ -471,18 +471,23 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         """Step every sub-env; those that ended on the previous step start a new episode instead (NEXT_STEP).
 
         The task steps the whole batch (its randomness is a pure function of each episode's key, so the
-        discarded rows of resetting sub-envs draw nothing that others see); resetting rows then start fresh
-        episodes and report reward 0, not terminated, not truncated, and masked-out infos.
+        discarded rows of resetting sub-envs draw nothing that others see), unless every sub-env resets (one-step
+        episodes do so every other step): then its outputs are zeros. Resetting rows then start fresh episodes
+        and report reward 0, not terminated, not truncated, and masked-out infos.
         """
         state = self.state
         if state is None:
             raise gym.error.ResetNeeded("Call reset() before step().")
         a = check_actions(actions, self._action)
         out = self.task.outputs(self.num_envs)
-        _in_chunks(self.num_envs, lambda rows: self.task.step(rows_of(state, rows), a[rows], rows_of(out, rows)))
+        resetting = self._autoreset
+        if resetting.all():
+            for value in out.values():
+                value.fill(0)
+        else:
+            _in_chunks(self.num_envs, lambda rows: self.task.step(rows_of(state, rows), a[rows], rows_of(out, rows)))
         state["step"] += 1
         reward, terminated = out["reward"], out["terminated"]
-        resetting = self._autoreset
         info = self._vector_info(self.task.info(state, out), ~resetting, {id(v) for v in state.values()})
         if resetting.any():
             rows = np.flatnonzero(resetting)
