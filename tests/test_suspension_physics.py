@@ -195,3 +195,19 @@ def test_skyhook_rides_better_than_both_passive_dampers_of_its_range_as_in_the_s
     np.testing.assert_allclose(rms, [[4.70, 1.68, 1.52], [2.12, 5.50, 2.10]], atol=0.03)
     assert rms[0, 2] < 0.92 * rms[0, 1] < rms[0, 0]
     assert rms[1, 2] < 1.01 * rms[1, 0] < 0.5 * rms[1, 1]
+
+
+def test_terrain_is_the_sum_of_its_sinusoids_row_by_row() -> None:
+    """The terrain is evaluated in passes over the rows (one per sinusoid): within an ulp or two of libm's sine and
+    cosine, and each row as if alone."""
+    rng = np.random.default_rng(3)
+    x = rng.uniform(0.0, 300.0, 64)
+    wavenumber = 2.0 * np.pi / rng.uniform(1.5, 30.0, (64, 3))
+    amplitude, phase = 0.01 / wavenumber, rng.uniform(0.0, 2.0 * np.pi, (64, 3))
+    height, slope = suspension.terrain(x, amplitude, wavenumber, phase)
+    angle = wavenumber * x[:, None] + phase
+    np.testing.assert_allclose(height, np.sum(amplitude * np.sin(angle), axis=1), rtol=0, atol=1e-16)
+    np.testing.assert_allclose(slope, np.sum(amplitude * wavenumber * np.cos(angle), axis=1), rtol=0, atol=1e-16)
+    for i in (0, 31, 63):
+        alone = suspension.terrain(x[i : i + 1], amplitude[i : i + 1], wavenumber[i : i + 1], phase[i : i + 1])
+        assert (alone[0][0], alone[1][0]) == (height[i], slope[i])

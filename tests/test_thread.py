@@ -173,3 +173,24 @@ def test_actuators_are_spread_evenly_and_mirror_symmetric_where_they_can_be() ->
 def test_bad_parameters_raise_value_error_naming_them(kwargs: dict, name: str) -> None:
     with pytest.raises(ValueError, match=name):
         gym.make(ENV_ID, **kwargs)
+
+
+def test_a_batch_of_several_blocks_steps_each_episode_as_alone_bit_for_bit() -> None:
+    """The step kernel advances blocks of threads in passes (the last one partial): every row of a batch of 300
+    must come out as that episode stepped on its own."""
+    task = gym.make(ENV_ID).unwrapped.task
+    n = 300
+    keys = np.arange(1, n + 1, dtype=np.uint64) * np.uint64(0x9E3779B97F4A7C15)
+    state = task.initial_state(keys)
+    action = np.random.default_rng(0).uniform(-1.0, 1.0, (n, 6))
+    rows = [{k: v[i : i + 1].copy() for k, v in state.items()} for i in range(n)]
+    for _ in range(3):
+        out = task.outputs(n)
+        task.step(state, action, out)
+        for i in (0, 1, 255, 256, 257, 299):
+            alone = task.outputs(1)
+            task.step(rows[i], action[i : i + 1], alone)
+            for name, value in out.items():
+                np.testing.assert_array_equal(value[i : i + 1], alone[name], err_msg=name)
+            for name, value in state.items():
+                np.testing.assert_array_equal(value[i : i + 1], rows[i][name], err_msg=name)

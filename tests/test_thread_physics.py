@@ -149,3 +149,41 @@ def test_velocity_feedback_and_drag_damp_the_thread_to_rest() -> None:
         positions, velocities = thread.step(positions, velocities, 0.0, 1e-3, damped)
     assert np.max(np.abs(velocities)) < 1e-4
     np.testing.assert_allclose(positions[0], thread.static_equilibrium(damped), atol=1e-5)
+
+
+@pytest.mark.parametrize("rows", [1, 5, 8, 9, 18, 65, 128, 129, 300])
+def test_column_sums_are_numpys_pairwise_sums_bit_for_bit(rows: int) -> None:
+    values = np.random.default_rng(rows).normal(size=(rows, 7)) * 10.0 ** np.arange(-3, 4)
+    out = np.empty(7)
+    thread.column_sums(values.copy(), out)
+    np.testing.assert_array_equal(out, [np.sum(np.ascontiguousarray(values[:, i])) for i in range(7)])
+
+
+def test_a_batch_moves_and_weighs_each_of_its_threads_as_alone_bit_for_bit() -> None:
+    """The compiled functions run in passes over the batch: each thread's result must not depend on the others."""
+    rng = np.random.default_rng(1)
+    positions = pluck(DEFAULT, 0.05, 0.3) + rng.uniform(-0.01, 0.01, (37, 9, 2))
+    velocities, forces = rng.uniform(-0.5, 0.5, (37, 9, 2)), rng.uniform(-0.5, 0.5, (37, 9, 2))
+    h, before = 0.5 * DEFAULT.stable_step, positions.copy()
+    moved = thread.step(positions, velocities, forces, h, DEFAULT)
+    for b in (0, 17, 36):
+        alone = thread.step(positions[b : b + 1], velocities[b : b + 1], forces[b : b + 1], h, DEFAULT)
+        np.testing.assert_array_equal(moved[0][b], alone[0][0])
+        np.testing.assert_array_equal(moved[1][b], alone[1][0])
+        a = thread.acceleration(positions[b : b + 1], velocities[b : b + 1], forces[b : b + 1], DEFAULT)
+        np.testing.assert_array_equal(thread.acceleration(positions, velocities, forces, DEFAULT)[b], a[0])
+        e = thread.energy(positions[b : b + 1], velocities[b : b + 1], DEFAULT)
+        assert thread.energy(positions, velocities, DEFAULT)[b] == e[0]
+    np.testing.assert_array_equal(positions, before)
+
+
+def test_energy_is_the_closed_form_summed_as_numpy_sums() -> None:
+    rng = np.random.default_rng(2)
+    positions, velocities = pluck(DEFAULT, 0.07, 0.4) + rng.uniform(-0.01, 0.01, (6, 9, 2)), rng.normal(size=(6, 9, 2))
+    _, length = thread.spring_forces(positions, DEFAULT)
+    m, g, s_, l_ = DEFAULT.node_mass, DEFAULT.gravity, DEFAULT.stiffness, DEFAULT.natural_length
+    for b in range(6):
+        kinetic = 0.5 * m * np.sum((velocities[b] * velocities[b]).reshape(-1))
+        potential = m * g * np.sum(np.ascontiguousarray(positions[b, :, 1]))
+        elastic = 0.5 * s_ * np.sum((length[b] - l_) * (length[b] - l_))
+        assert thread.energy(positions, velocities, DEFAULT)[b] == kinetic + potential + elastic

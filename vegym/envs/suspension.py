@@ -98,7 +98,7 @@ MEASURES = ("travel", "damping", "rms_acceleration")
 RMS body acceleration since the start (m/s^2)."""
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _step_kernel(
     action: np.ndarray,
     height: np.ndarray,
@@ -121,57 +121,60 @@ def _step_kernel(
     terminated: np.ndarray,
     obs: np.ndarray,
 ) -> None:
-    """The whole step and the next observation, fused per episode, in place on the state arrays (``height`` to
+    """The whole step and the next observation, in place on the state arrays (``height`` to
     ``squared_acceleration``; ``step``, the steps taken before this one, and the terrain ``amplitude`` to
     ``offset`` are read only) and into the outputs (``measures`` to ``obs``): the columns of ``MEASURES``
     (suspension travel (m), damper coefficient (N s/m), RMS body acceleration since the start (m/s^2)), the
     reward terms (comfort, bump stop), reward, is_success and terminated (bump stop hit); ``c`` holds the
-    parameters named in ``STEP_CONSTANTS``, then the spring's ``(k, l, m, g)``."""
+    parameters named in ``STEP_CONSTANTS``, then the spring's ``(k, l, m, g)``.
+
+    Written as passes over the batch, each a loop without calls or exits that the compiler turns into SIMD code:
+    the terrain under the wheel's new position, the quarter-car step, its measures and reward (a pass of their
+    own: one loop over all these arrays exceeds the compiler's budget of run-time alias checks and stays scalar),
+    the measures' and terms' columns, the observation."""
     damping_min, damping_max, dt, speed, static_length, travel_limit = c[0], c[1], c[2], c[3], c[4], c[5]
     episode_steps, accel_scale, bottom_out_penalty, comfort_rms = c[6], c[7], c[8], c[9]
     spring = (c[11], c[12], c[13], c[14])
-    for i in range(len(action)):
-        damping = damping_min + 0.5 * (action[i, 0] + 1.0) * (damping_max - damping_min)
-        y, v, a = suspension.body_step(height[i], velocity[i], base[i], base_velocity[i], damping, dt, 0.0, spring)
-        x = distance[i] + speed * dt
-        ground, slope = suspension.terrain_at(x, amplitude[i], wavenumber[i], phase[i])
-        new_base = ground - offset[i]
-        travel = y - new_base - static_length
-        bottomed = abs(travel) > travel_limit
-        squared = squared_acceleration[i] + dt * a * a
-        rms = math.sqrt(squared / ((step[i] + 1) * dt))
+    n = len(action)
+    for i in range(n):
+        distance[i] = distance[i] + speed * dt
+    ground, slope = np.empty(n), np.empty(n)
+    suspension.terrain_into(distance, amplitude, wavenumber, phase, ground, slope)
+    damping = np.empty(n)
+    for i in range(n):  # the quarter-car
+        damping[i] = damping_min + 0.5 * (action[i, 0] + 1.0) * (damping_max - damping_min)
+        y, v, a = suspension.body_step(height[i], velocity[i], base[i], base_velocity[i], damping[i], dt, 0.0, spring)
+        height[i], velocity[i], base[i], base_velocity[i] = y, v, ground[i] - offset[i], slope[i] * speed
+        acceleration[i], squared_acceleration[i] = a, squared_acceleration[i] + dt * a * a
+    travel, rms, comfort, bump = ground, slope, np.empty(n), np.empty(n)  # the terrain's scratch reused
+    for i in range(n):  # its measures and reward
+        travel[i] = height[i] - base[i] - static_length
+        bottomed = abs(travel[i]) > travel_limit
+        rms[i] = math.sqrt(squared_acceleration[i] / ((step[i] + 1) * dt))
         remaining = max(episode_steps - step[i] - 1, 0.0) * dt
-        terms[i, 0] = -dt * min((a / accel_scale) ** 2, 1.0)
-        terms[i, 1] = -(bottom_out_penalty + remaining) if bottomed else 0.0
-        reward[i] = terms[i, 0] + terms[i, 1]
-        success[i], terminated[i] = not bottomed and rms <= comfort_rms, bottomed
-        distance[i], height[i], velocity[i], base[i], base_velocity[i] = x, y, v, new_base, slope * speed
-        acceleration[i], squared_acceleration[i] = a, squared
-        measures[i, 0], measures[i, 1], measures[i, 2] = travel, damping, rms
-        _observe_row(i, height, velocity, base, base_velocity, acceleration, c, obs)
+        comfort[i] = -dt * min((acceleration[i] / accel_scale) ** 2, 1.0)
+        bump[i] = -(bottom_out_penalty + remaining) if bottomed else 0.0
+        reward[i] = comfort[i] + bump[i]
+        success[i], terminated[i] = (not bottomed) & (rms[i] <= comfort_rms), bottomed
+    for i in range(n):  # a pass of its own: strided stores would keep the step's pass from SIMD code
+        measures[i, 0], measures[i, 1], measures[i, 2] = travel[i], damping[i], rms[i]
+        terms[i, 0], terms[i, 1] = comfort[i], bump[i]
+    _observe_kernel(height, velocity, base, base_velocity, acceleration, c, obs)
 
 
-@njit(cache=True, nogil=True, inline="always")
-def _observe_row(
-    i: int, height: np.ndarray, velocity: np.ndarray, base: np.ndarray, base_velocity: np.ndarray,
-    acceleration: np.ndarray, c: np.ndarray, obs: np.ndarray,
-) -> None:  # fmt: skip
-    """Observation of episode ``i`` into ``obs[i]``; ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
-    static_length, travel_limit, accel_scale, velocity_scale = c[4], c[5], c[7], c[10]
-    obs[i, 0] = min(max((height[i] - base[i] - static_length) / travel_limit, -1.0), 1.0)
-    obs[i, 1] = min(max(velocity[i] / velocity_scale, -1.0), 1.0)
-    obs[i, 2] = min(max((velocity[i] - base_velocity[i]) / velocity_scale, -1.0), 1.0)
-    obs[i, 3] = min(max(acceleration[i] / accel_scale, -1.0), 1.0)
-
-
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _observe_kernel(
     height: np.ndarray, velocity: np.ndarray, base: np.ndarray, base_velocity: np.ndarray, acceleration: np.ndarray,
     c: np.ndarray, obs: np.ndarray,
 ) -> None:  # fmt: skip
     """Observations (n, 4) written into ``obs``; ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
+    static_length, travel_limit, accel_scale, velocity_scale = c[4], c[5], c[7], c[10]
+    flat = obs.reshape(-1)  # rows of 4 at a constant stride: interleaved vector stores
     for i in range(len(height)):
-        _observe_row(i, height, velocity, base, base_velocity, acceleration, c, obs)
+        flat[4 * i] = min(max((height[i] - base[i] - static_length) / travel_limit, -1.0), 1.0)
+        flat[4 * i + 1] = min(max(velocity[i] / velocity_scale, -1.0), 1.0)
+        flat[4 * i + 2] = min(max((velocity[i] - base_velocity[i]) / velocity_scale, -1.0), 1.0)
+        flat[4 * i + 3] = min(max(acceleration[i] / accel_scale, -1.0), 1.0)
 
 
 class SuspensionTask(Task[SuspensionParams]):

@@ -12,7 +12,6 @@ from vegym import rng
 from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
 from vegym.params import Params, invalid, param
 from vegym.physics import thread
-from vegym.physics.columns import pairwise_sum
 from vegym.physics.particle import STANDARD_GRAVITY
 from vegym.physics.thread import ThreadParams
 
@@ -84,7 +83,11 @@ STEP_CONSTANTS = ("max_force", "dt", "settle_fraction", "effort_weight", "pluck_
 """Parameters the kernels read, in the order of their constants array (SI units, see the fields)."""
 
 
-@njit(cache=True, nogil=True)
+_BLOCK = 256
+"""Threads the step kernel advances at once in the column layout: its scratch stays in the L2 cache."""
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
 def _step_kernel(
     action: np.ndarray,
     positions: np.ndarray,
@@ -106,60 +109,82 @@ def _step_kernel(
     terminated: np.ndarray,
     obs: np.ndarray,
 ) -> None:
-    """The whole step and the next observation, fused per episode, in place on the state arrays (``positions``,
-    ``velocities``, ``excess``) and into the outputs (``forces`` to ``obs``): ``substeps`` semi-implicit Euler
-    steps of the thread (``thread.advance``) under the actuator forces (N), then its energy (J); ``c`` holds the
-    parameters named in ``STEP_CONSTANTS`` and ``physics`` is ``ThreadParams.constants``. The scratch buffers
-    are this call's own, so calls on different rows may run at once."""
+    """The whole step and the next observation, in place on the state arrays (``positions``, ``velocities``,
+    ``excess``) and into the outputs (``forces`` to ``obs``): ``substeps`` semi-implicit Euler steps of the thread
+    (``thread.advance``) under the actuator forces (N), then its energy (J); ``c`` holds the parameters named in
+    ``STEP_CONSTANTS`` and ``physics`` is ``ThreadParams.constants``. The scratch buffers are this call's own, so
+    calls on different rows may run at once.
+
+    Written as passes over the batch for SIMD code: blocks of ``_BLOCK`` threads go into the column layout of
+    ``thread.advance`` (the chain (N + 2, 2, block) of points with the fixed ends and the velocities (N, 2, block);
+    the columns past the last thread repeat the block's first), are advanced and summed there, and go back; the
+    reward and the observation are passes of their own."""
     max_force, dt, settle_fraction, effort_weight = c[0], c[1], c[2], c[3]
-    n_nodes, n_actuators, n_actions = positions.shape[1], len(actuated), action.shape[1]
-    applied, scratch = np.zeros((n_nodes, 2)), np.empty((n_nodes, 2))
-    buffer = np.empty(max(2 * n_nodes + 2, n_actions))
+    n, n_nodes, n_actions = len(action), positions.shape[1], action.shape[1]
+    flat_action, flat_forces = action.reshape(-1), forces.reshape(-1)
+    for i in range(len(flat_action)):
+        flat_forces[i] = max_force * flat_action[i]
+    width = min(n, _BLOCK)
+    chain, v, applied = np.empty((n_nodes + 2, 2, width)), np.empty((n_nodes, 2, width)), np.zeros((n_nodes, 2, width))
+    chain[0], chain[n_nodes + 1, 0], chain[n_nodes + 1, 1] = 0.0, physics[5], 0.0  # the fixed ends
+    scale, tensions = np.empty((n_nodes + 1, width)), np.empty((n_nodes + 1, 2, width))
+    work, squares = np.empty((2 * n_nodes + 1, width)), np.empty((n_actions, width))
+    block_energy, energy_term, effort = np.empty(width), np.empty(width), np.empty(width)
+    p_rows, v_rows = positions.reshape(n, 2 * n_nodes), velocities.reshape(n, 2 * n_nodes)
+    p_columns, v_columns = chain[1 : n_nodes + 1].reshape(2 * n_nodes, width), v.reshape(2 * n_nodes, width)
     h = dt / substeps
-    for i in range(len(action)):
-        for k in range(n_actuators):
-            forces[i, k, 0], forces[i, k, 1] = max_force * action[i, 2 * k], max_force * action[i, 2 * k + 1]
-            applied[actuated[k], 0], applied[actuated[k], 1] = forces[i, k, 0], forces[i, k, 1]
-        for _ in range(substeps):
-            thread.advance(positions[i], velocities[i], applied, h, physics, scratch)
-        energy[i] = thread.energy_one(positions[i], velocities[i], physics, buffer)
-        excess[i] = energy[i] - rest_energy
-        fraction[i] = excess[i] / initial_excess[i]
-        settled = fraction[i] <= settle_fraction
-        squares = buffer[:n_actions]
+    for start in range(0, n, width):
+        count = min(width, n - start)
+        _to_columns(p_rows, start, count, p_columns)
+        _to_columns(v_rows, start, count, v_columns)
         for k in range(n_actions):
-            squares[k] = action[i, k] * action[i, k]
-        terms[i, 0] = -dt * fraction[i]
-        terms[i, 1] = -effort_weight * dt * (pairwise_sum(squares) / n_actions)
-        reward[i] = terms[i, 0] + terms[i, 1]
-        success[i], terminated[i] = settled, settled
-        _observe_row(i, positions, velocities, excess, initial_excess, equilibrium, c, obs)
+            node, xy = actuated[k // 2], k % 2
+            for i in range(count):
+                applied[node, xy, i] = forces[start + i, k // 2, xy]
+                squares[k, i] = action[start + i, k] * action[start + i, k]
+            for i in range(count, width):
+                applied[node, xy, i], squares[k, i] = applied[node, xy, 0], squares[k, 0]
+        for _ in range(substeps):
+            thread.advance(chain, v, applied, h, physics, scale, tensions)
+        thread.energies(chain, v, physics, work, block_energy)
+        thread.column_sums(squares, effort)
+        for i in range(count):
+            r = start + i
+            energy[r] = block_energy[i]
+            excess[r] = block_energy[i] - rest_energy
+            fraction[r] = excess[r] / initial_excess[r]
+            settled = fraction[r] <= settle_fraction
+            energy_term[i] = -dt * fraction[r]
+            effort[i] = -effort_weight * dt * (effort[i] / n_actions)  # the sum of squares becomes the term
+            reward[r] = energy_term[i] + effort[i]
+            success[r], terminated[r] = settled, settled
+        for i in range(count):  # a pass of its own: strided stores would keep the reward's pass from SIMD code
+            terms[start + i, 0], terms[start + i, 1] = energy_term[i], effort[i]
+        for i in range(count):  # back to the rows
+            for k in range(2 * n_nodes):
+                p_rows[start + i, k], v_rows[start + i, k] = p_columns[k, i], v_columns[k, i]
+    _observe_kernel(positions, velocities, excess, initial_excess, equilibrium, c, obs)
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _observe_row(
-    i: int,
-    positions: np.ndarray,
-    velocities: np.ndarray,
-    excess: np.ndarray,
-    initial_excess: np.ndarray,
-    equilibrium: np.ndarray,
-    c: np.ndarray,
-    obs: np.ndarray,
-) -> None:
-    """Observation (4 N + 1) of episode ``i`` into ``obs[i]``; ``c`` holds the parameters named in
-    ``STEP_CONSTANTS``."""
-    pluck_max, velocity_scale = c[4], c[5]
-    n_nodes = positions.shape[1]
-    for j in range(n_nodes):
-        for k in range(2):
-            displacement = (positions[i, j, k] - equilibrium[j, k]) / pluck_max
-            obs[i, 2 * j + k] = min(max(displacement, -1.0), 1.0)
-            obs[i, 2 * n_nodes + 2 * j + k] = min(max(velocities[i, j, k] / velocity_scale, -1.0), 1.0)
-    obs[i, 4 * n_nodes] = min(max(excess[i] / initial_excess[i], 0.0), 1.0)
+def _to_columns(rows: np.ndarray, start: int, count: int, columns: np.ndarray) -> None:
+    """Rows ``start`` to ``start + count`` of ``rows`` (n, m) transposed into the first ``count`` columns of
+    ``columns`` (m, width), in tiles of 16 rows (vector loads along the rows' stride); the columns past ``count``
+    repeat the first."""
+    m, width = columns.shape
+    tiled = count - count % 16
+    for tile in range(0, tiled, 16):
+        for k in range(m):
+            for i in range(tile, tile + 16):
+                columns[k, i] = rows[start + i, k]
+    for k in range(m):
+        for i in range(tiled, count):
+            columns[k, i] = rows[start + i, k]
+        for i in range(count, width):
+            columns[k, i] = columns[k, 0]
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _observe_kernel(
     positions: np.ndarray,
     velocities: np.ndarray,
@@ -169,9 +194,18 @@ def _observe_kernel(
     c: np.ndarray,
     obs: np.ndarray,
 ) -> None:
-    """Observations (n, 4 N + 1) into ``obs``; ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
-    for i in range(len(excess)):
-        _observe_row(i, positions, velocities, excess, initial_excess, equilibrium, c, obs)
+    """Observations (n, 4 N + 1) into ``obs``; ``c`` holds the parameters named in ``STEP_CONSTANTS``. Loops over
+    each row's coordinates innermost, for SIMD code."""
+    pluck_max, velocity_scale = c[4], c[5]
+    n, size = len(excess), 2 * positions.shape[1]
+    p, v, rest = positions.reshape(n, size), velocities.reshape(n, size), equilibrium.reshape(-1)
+    for i in range(n):  # one loop per part of the row: a loop writing two parts of one array compiles to slower code
+        for k in range(size):
+            obs[i, k] = min(max((p[i, k] - rest[k]) / pluck_max, -1.0), 1.0)
+        for k in range(size):
+            obs[i, size + k] = min(max(v[i, k] / velocity_scale, -1.0), 1.0)
+    for i in range(n):
+        obs[i, 2 * size] = min(max(excess[i] / initial_excess[i], 0.0), 1.0)
 
 
 class ThreadTask(Task[ThreadEnvParams]):

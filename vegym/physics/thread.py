@@ -13,7 +13,9 @@ It is stable for ``h < 2 / omega_max``, with ``omega_max < 2 sqrt(S/m)``; :func:
 ``h < sqrt(m/S)`` (and ``c h / m < 1``) and :func:`substeps` splits a longer step accordingly.
 
 Positions and velocities are arrays (n, N, 2) (batch, node, xy); forces on interior nodes likewise. Functions
-never modify their inputs.
+never modify their inputs. The compiled functions behind them (:func:`advance`, :func:`accelerate`,
+:func:`energies`) take a batch in the column layout (N, 2, n) (node, xy, batch), the positions as the chain
+(N + 2, 2, n) of all points with the fixed ends, and are written as passes over the batch for SIMD code.
 """
 
 from __future__ import annotations
@@ -26,7 +28,6 @@ import numpy as np
 from numba import njit
 
 from vegym.params import Params, param
-from vegym.physics.columns import pairwise_sum
 from vegym.physics.particle import STANDARD_GRAVITY
 
 
@@ -73,127 +74,188 @@ def spring_forces(positions: np.ndarray, params: ThreadParams) -> tuple[np.ndarr
     return (params.stiffness * (length - params.natural_length) / length)[..., None] * d, length
 
 
-@njit(cache=True)
-def accelerate(
-    positions: np.ndarray,
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _tensions(
+    chain: np.ndarray, c: tuple[float, float, float, float, float, float], scale: np.ndarray, out: np.ndarray
+) -> None:
+    """Tension vectors ``f_j = S (L_j - l) d_j / L_j`` (N) of the N + 1 springs, written into ``out`` (N + 1, 2, n)
+    from the ``chain`` (N + 2, 2, n) of all points; ``scale`` (N + 1, n) receives ``S (L_j - l) / L_j`` (N/m).
+    Each pass writes one row of each array (a pass writing two rows of one array compiles to slower code)."""
+    stiffness, natural_length = c[0], c[1]
+    for j in range(chain.shape[0] - 1):
+        for i in range(chain.shape[2]):
+            dx, dy = chain[j + 1, 0, i] - chain[j, 0, i], chain[j + 1, 1, i] - chain[j, 1, i]
+            length = math.sqrt(dx * dx + dy * dy)
+            scale[j, i] = stiffness * (length - natural_length) / length
+        for k in range(2):
+            for i in range(chain.shape[2]):
+                out[j, k, i] = scale[j, i] * (chain[j + 1, k, i] - chain[j, k, i])
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _node_acceleration(
+    j: int,
+    k: int,
+    i: int,
+    tensions: np.ndarray,
     velocities: np.ndarray,
     forces: np.ndarray,
     c: tuple[float, float, float, float, float, float],
+) -> float:
+    """Acceleration (m/s^2) along axis k of thread i's node ``p_{j+1}`` (row j of ``velocities`` and ``forces``),
+    between springs j and j + 1 of ``tensions``: ``(f_{j+1} - f_j - c v + u) / m - g y_hat``."""
+    _, _, mass, gravity, drag, _ = c
+    weight = gravity if k == 1 else 0.0  # subtracting 0.0 changes no bit
+    return (tensions[j + 1, k, i] - tensions[j, k, i] - drag * velocities[j, k, i] + forces[j, k, i]) / mass - weight
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def accelerate(
+    chain: np.ndarray,
+    velocities: np.ndarray,
+    forces: np.ndarray,
+    c: tuple[float, float, float, float, float, float],
+    scale: np.ndarray,
+    tensions: np.ndarray,
     out: np.ndarray,
 ) -> None:
-    """Accelerations (N, 2) of one thread's nodes (m/s^2), written into ``out``: springs, gravity, drag and the
-    applied forces (N, 2) (N); ``c = ThreadParams.constants``. The one compiled form of the model, behind
-    :func:`acceleration`, :func:`step` and Thread-v0's kernel."""
-    stiffness, natural_length, mass, gravity, drag, span = c
-    n = len(positions)
-    before_x, before_y = 0.0, 0.0
-    for j in range(n + 1):  # spring j joins p_j and p_{j+1}; p_0 = (0, 0) and p_{N+1} = (span, 0) are fixed
-        x0, y0 = (0.0, 0.0) if j == 0 else (positions[j - 1, 0], positions[j - 1, 1])
-        x1, y1 = (span, 0.0) if j == n else (positions[j, 0], positions[j, 1])
-        dx, dy = x1 - x0, y1 - y0
-        length = math.sqrt(dx * dx + dy * dy)
-        tension = stiffness * (length - natural_length) / length
-        fx, fy = tension * dx, tension * dy
-        if j > 0:
-            i = j - 1
-            out[i, 0] = (fx - before_x - drag * velocities[i, 0] + forces[i, 0]) / mass
-            out[i, 1] = (fy - before_y - drag * velocities[i, 1] + forces[i, 1]) / mass - gravity
-        before_x, before_y = fx, fy
-
-
-@njit(cache=True)
-def advance(
-    positions: np.ndarray,
-    velocities: np.ndarray,
-    forces: np.ndarray,
-    dt: float,
-    c: tuple[float, float, float, float, float, float],
-    scratch: np.ndarray,
-) -> None:
-    """One semi-implicit Euler step of ``dt`` seconds of one thread, in place on ``positions`` and ``velocities``
-    (N, 2); ``scratch`` (N, 2) receives the accelerations."""
-    accelerate(positions, velocities, forces, c, scratch)
-    for i in range(len(positions)):
+    """Accelerations (N, 2, n) of a batch of threads (m/s^2), written into ``out``: springs, gravity, drag and the
+    applied ``forces`` (N, 2, n) (N); ``c = ThreadParams.constants``; ``chain`` (N + 2, 2, n) holds all points,
+    the fixed ends included, and ``velocities`` (N, 2, n) those of the interior nodes (the column layout);
+    ``scale`` (N + 1, n) and ``tensions`` (N + 1, 2, n) are scratch (see :func:`_tensions`). Passes over the
+    batch, for SIMD code."""
+    _tensions(chain, c, scale, tensions)
+    for j in range(velocities.shape[0]):
         for k in range(2):
-            velocities[i, k] = velocities[i, k] + dt * scratch[i, k]
-            positions[i, k] = positions[i, k] + dt * velocities[i, k]
+            for i in range(velocities.shape[2]):
+                out[j, k, i] = _node_acceleration(j, k, i, tensions, velocities, forces, c)
 
 
-@njit(cache=True)
-def energy_one(
-    positions: np.ndarray,
-    velocities: np.ndarray,
-    c: tuple[float, float, float, float, float, float],
-    scratch: np.ndarray,
-) -> float:
-    """:func:`energy` of one thread (J), summed in numpy's order; ``scratch`` holds at least 2 N + 2 floats."""
-    stiffness, natural_length, mass, gravity, _, span = c
-    n = len(positions)
-    squares = scratch[: 2 * n]
-    for i in range(n):
-        squares[2 * i], squares[2 * i + 1] = velocities[i, 0] * velocities[i, 0], velocities[i, 1] * velocities[i, 1]
-    kinetic = 0.5 * mass * pairwise_sum(squares)
-    heights = scratch[:n]
-    for i in range(n):
-        heights[i] = positions[i, 1]
-    potential = mass * gravity * pairwise_sum(heights)
-    stretches = scratch[: n + 1]
-    for j in range(n + 1):
-        x0, y0 = (0.0, 0.0) if j == 0 else (positions[j - 1, 0], positions[j - 1, 1])
-        x1, y1 = (span, 0.0) if j == n else (positions[j, 0], positions[j, 1])
-        dx, dy = x1 - x0, y1 - y0
-        stretch = math.sqrt(dx * dx + dy * dy) - natural_length
-        stretches[j] = stretch * stretch
-    return kinetic + potential + 0.5 * stiffness * pairwise_sum(stretches)
-
-
-@njit(cache=True)
-def _accelerate_each(
-    positions: np.ndarray,
-    velocities: np.ndarray,
-    forces: np.ndarray,
-    c: tuple[float, float, float, float, float, float],
-) -> np.ndarray:
-    out = np.empty_like(positions)
-    for b in range(len(positions)):
-        accelerate(positions[b], velocities[b], forces[b], c, out[b])
-    return out
-
-
-@njit(cache=True)
-def _advance_each(
-    positions: np.ndarray,
+@njit(cache=True, nogil=True, error_model="numpy")
+def advance(
+    chain: np.ndarray,
     velocities: np.ndarray,
     forces: np.ndarray,
     dt: float,
     c: tuple[float, float, float, float, float, float],
+    scale: np.ndarray,
+    tensions: np.ndarray,
 ) -> None:
-    scratch = np.empty(positions.shape[1:])
-    for b in range(len(positions)):
-        advance(positions[b], velocities[b], forces[b], dt, c, scratch)
+    """One semi-implicit Euler step of ``dt`` seconds of a batch of threads, in place on the interior nodes of
+    ``chain`` and on ``velocities``, as :func:`accelerate` and then ``v <- v + dt a``, ``p <- p + dt v`` (arrays
+    as there). Passes over the batch, for SIMD code: the model's one compiled form, behind :func:`step` and
+    Thread-v0's kernel."""
+    _tensions(chain, c, scale, tensions)
+    for j in range(velocities.shape[0]):
+        for k in range(2):
+            for i in range(velocities.shape[2]):
+                v = velocities[j, k, i] + dt * _node_acceleration(j, k, i, tensions, velocities, forces, c)
+                velocities[j, k, i] = v
+                chain[j + 1, k, i] = chain[j + 1, k, i] + dt * v
 
 
-@njit(cache=True)
-def _energy_each(
-    positions: np.ndarray, velocities: np.ndarray, c: tuple[float, float, float, float, float, float]
-) -> np.ndarray:
-    out, scratch = np.empty(len(positions)), np.empty(2 * positions.shape[1] + 2)
-    for b in range(len(positions)):
-        out[b] = energy_one(positions[b], velocities[b], c, scratch)
-    return out
+@njit(cache=True, nogil=True)
+def column_sums(values: np.ndarray, out: np.ndarray) -> None:
+    """Each column of ``values`` (m, n) summed into ``out`` (n,) as ``columns.pairwise_sum`` (numpy's ``np.sum``
+    of a 1-d array) sums it, bit for bit, in passes over the columns for SIMD code; ``values`` is overwritten (its
+    first eight rows accumulate). ``out`` may be a row of a C-contiguous ``values`` beyond the first ``m``."""
+    m, n = values.shape
+    if m < 8:
+        for i in range(n):
+            out[i] = 0.0
+        for k in range(m):
+            for i in range(n):
+                out[i] += values[k, i]
+        return
+    if m > 128:
+        half = m // 2
+        half -= half % 8
+        left = np.empty(n)
+        column_sums(values[:half], left)
+        column_sums(values[half:], out)
+        for i in range(n):
+            out[i] = left[i] + out[i]
+        return
+    for k in range(8, m - m % 8, 8):
+        for t in range(8):
+            for i in range(n):
+                values[t, i] = values[t, i] + values[k + t, i]
+    for i in range(n):
+        out[i] = ((values[0, i] + values[1, i]) + (values[2, i] + values[3, i])) + (
+            (values[4, i] + values[5, i]) + (values[6, i] + values[7, i])
+        )
+    for k in range(m - m % 8, m):
+        for i in range(n):
+            out[i] += values[k, i]
 
 
-def _batch(*arrays: np.ndarray | float) -> list[np.ndarray]:
-    """``arrays`` broadcast to one shape (n, N, 2) as new contiguous float64 arrays."""
+@njit(cache=True, nogil=True)
+def energies(
+    chain: np.ndarray,
+    velocities: np.ndarray,
+    c: tuple[float, float, float, float, float, float],
+    scratch: np.ndarray,
+    out: np.ndarray,
+) -> None:
+    """:func:`energy` of a batch of threads (J) written into ``out`` (n,), each sum in numpy's order
+    (:func:`column_sums`); ``chain`` (N + 2, 2, n) and ``velocities`` (N, 2, n) as in :func:`accelerate`
+    (C-contiguous) and ``scratch`` a C-contiguous (2 N + 1, n)."""
+    stiffness, natural_length, mass, gravity = c[0], c[1], c[2], c[3]
+    n_nodes, batch = velocities.shape[0], velocities.shape[2]
+    v, total = velocities.reshape(2 * n_nodes, batch), scratch[2 * n_nodes]
+    for k in range(2 * n_nodes):  # the squares in the order of the nodes' (x, y) pairs
+        for i in range(batch):
+            scratch[k, i] = v[k, i] * v[k, i]
+    column_sums(scratch[: 2 * n_nodes], total)
+    for i in range(batch):
+        out[i] = 0.5 * mass * total[i]
+    for j in range(n_nodes):
+        for i in range(batch):
+            scratch[j, i] = chain[j + 1, 1, i]
+    column_sums(scratch[:n_nodes], total)
+    for i in range(batch):
+        out[i] = out[i] + mass * gravity * total[i]
+    for j in range(n_nodes + 1):
+        for i in range(batch):
+            dx, dy = chain[j + 1, 0, i] - chain[j, 0, i], chain[j + 1, 1, i] - chain[j, 1, i]
+            stretch = math.sqrt(dx * dx + dy * dy) - natural_length
+            scratch[j, i] = stretch * stretch
+    column_sums(scratch[: n_nodes + 1], total)
+    for i in range(batch):
+        out[i] = out[i] + 0.5 * stiffness * total[i]
+
+
+def _columns(*arrays: np.ndarray | float) -> list[np.ndarray]:
+    """``arrays`` broadcast to one batch shape (n, N, 2), as new C-contiguous float64 arrays in the column layout
+    (N, 2, n) of the compiled functions."""
     shape = np.broadcast_shapes(*(np.shape(a) for a in arrays))
-    return [np.array(np.broadcast_to(np.asarray(a, dtype=np.float64), shape)) for a in arrays]
+    return [
+        np.array(np.broadcast_to(np.asarray(a, dtype=np.float64), shape).transpose(1, 2, 0), order="C") for a in arrays
+    ]
+
+
+def _chain_columns(positions: np.ndarray, params: ThreadParams) -> np.ndarray:
+    """A batch of positions (N, 2, n) in the column layout, with the fixed ends added: (N + 2, 2, n)."""
+    chain = np.empty((len(positions) + 2, 2, positions.shape[2]))
+    chain[0], chain[1:-1], chain[-1] = 0.0, positions, params.ends[1][:, None]
+    return chain
+
+
+def _rows(columns: np.ndarray) -> np.ndarray:
+    """An array in the column layout (N, 2, n) as a new batch (n, N, 2)."""
+    return np.ascontiguousarray(columns.transpose(2, 0, 1))
 
 
 def acceleration(
     positions: np.ndarray, velocities: np.ndarray, forces: np.ndarray | float, params: ThreadParams
 ) -> np.ndarray:
     """Node accelerations (n, N, 2) (m/s^2): springs, gravity, drag and the applied forces ``u`` (N)."""
-    return _accelerate_each(*_batch(positions, velocities, forces), params.constants)
+    positions, velocities, forces = _columns(positions, velocities, forces)
+    n_nodes, _, n = positions.shape
+    out = np.empty_like(positions)
+    scale, tensions = np.empty((n_nodes + 1, n)), np.empty((n_nodes + 1, 2, n))
+    accelerate(_chain_columns(positions, params), velocities, forces, params.constants, scale, tensions, out)
+    return _rows(out)
 
 
 def step(
@@ -208,9 +270,15 @@ def step(
             f"dt={dt!r} is outside the stable range (0, {params.stable_step:.4g}) s: semi-implicit Euler needs "
             "dt < sqrt(m/S) and dt < m/c; split the step (thread.substeps)"
         )
-    positions, velocities, forces = _batch(positions, velocities, forces)
-    _advance_each(positions, velocities, forces, float(dt), params.constants)
-    return positions, velocities
+    positions, velocities, forces = _columns(positions, velocities, forces)
+    n_nodes, _, n = positions.shape
+    chain, scale, tensions = (
+        _chain_columns(positions, params),
+        np.empty((n_nodes + 1, n)),
+        np.empty((n_nodes + 1, 2, n)),
+    )
+    advance(chain, velocities, forces, float(dt), params.constants, scale, tensions)
+    return _rows(chain[1:-1]), _rows(velocities)
 
 
 def substeps(dt: float, params: ThreadParams, margin: float = 0.5) -> int:
@@ -221,7 +289,11 @@ def substeps(dt: float, params: ThreadParams, margin: float = 0.5) -> int:
 def energy(positions: np.ndarray, velocities: np.ndarray, params: ThreadParams) -> np.ndarray:
     """Mechanical energy (n,) (J): kinetic ``sum m |v|^2 / 2`` + gravity ``sum m g y`` + elastic
     ``sum S (L - l)^2 / 2``."""
-    return _energy_each(*_batch(positions, velocities), params.constants)
+    positions, velocities = _columns(positions, velocities)
+    out = np.empty(positions.shape[2])
+    scratch = np.empty((2 * len(positions) + 1, len(out)))
+    energies(_chain_columns(positions, params), velocities, params.constants, scratch, out)
+    return out
 
 
 @functools.lru_cache(maxsize=32)
