@@ -114,3 +114,35 @@ def test_the_ghost_ball_strike_needs_the_8_60_impact_speed() -> None:
     impact = collision.speed_after(speed, 1.0 - p.contact_distance, p.deceleration)
     departure = collision.direct_impact(impact, 0.0, p.mass_a, p.mass_b, p.restitution)[1]
     assert sine[0] == 0.0 and departure[0] == pytest.approx(np.sqrt(2 * p.deceleration * 0.6), rel=1e-12)
+
+
+def test_the_step_is_the_collision_module_s_array_functions_on_a_s_aim() -> None:
+    p = BilliardsParams(mass_a=0.2, restitution=0.8)
+    task = BilliardsTask(p)
+    state = task.initial_state(vegym.rng.seed_keys(np.arange(2000)))
+    action = np.random.default_rng(5).uniform(-1, 1, (2000, 2))
+    action[:50, 0] = [-0.999, 0.999] * 25  # nearly grazing strikes
+    _, _, info = task.transition(state, action)
+    speed = 0.5 * (action[:, 1] + 1.0) * p.speed_max
+    aim = info["strike_velocity"] / speed[:, None]
+    travel = collision.first_contact(state["ball_a"], aim, state["ball_b"], p.contact_distance)
+    hit = info["contact"]
+    np.testing.assert_array_equal(hit, travel <= speed**2 / (2 * p.deceleration))
+    assert 0.5 < hit.mean() < 1.0
+    point = state["ball_a"][hit] + travel[hit, None] * aim[hit]
+    np.testing.assert_allclose(info["contact_point"][hit], point, atol=1e-9)
+    impact_speed = np.where(hit, collision.speed_after(speed, np.where(hit, travel, 0.0), p.deceleration), 0.0)
+    impact = impact_speed[hit, None] * aim[hit]
+    after_a, after_b = collision.oblique_impact(
+        info["contact_point"][hit], state["ball_b"][hit], impact, np.zeros_like(impact), p.mass_a, p.mass_b, 0.8
+    )
+    np.testing.assert_allclose(info["velocity_a"][hit], after_a, atol=1e-9)
+    np.testing.assert_allclose(info["velocity_b"][hit], after_b, atol=1e-9)
+    rest_a, _, time_a = collision.slide(info["contact_point"], info["velocity_a"], p.deceleration)
+    rest_b, _, time_b = collision.slide(state["ball_b"], info["velocity_b"], p.deceleration)
+    np.testing.assert_allclose(info["rest_a"], rest_a, atol=1e-12)
+    np.testing.assert_allclose(info["rest_b"], rest_b, atol=1e-12)
+    energy = collision.energy_loss(info["closing_speed"], p.mass_a, p.mass_b, 0.8)
+    np.testing.assert_allclose(info["energy_lost"], energy, rtol=1e-12)
+    duration = (speed - impact_speed) / p.deceleration + np.maximum(time_a, time_b)
+    np.testing.assert_allclose(info["duration"], duration, rtol=1e-9)

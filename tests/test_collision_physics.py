@@ -106,3 +106,13 @@ def test_a_sliding_ball_stops_after_v_squared_over_2a_and_launch_speed_inverts_s
     speed = collision.launch_speed(np.array([0.0, 1.5]), np.array([2.0, 0.7]), 0.3)
     np.testing.assert_allclose(collision.speed_after(speed, np.array([2.0, 0.7]), 0.3), [0.0, 1.5], atol=1e-12)
     assert collision.speed_after(1.0, 10.0, 0.3) == 0.0
+
+
+def test_first_contact_is_inf_for_a_miss_or_a_sphere_behind_and_0_when_touching() -> None:
+    c_a = np.zeros((4, 2))
+    direction = np.array([[1.0, 0.0], [0.0, 1.0], [-1.0, 0.0], [1.0, 0.0]])
+    c_b = np.array([[2.0, 0.0], [2.0, 0.5], [2.0, 0.0], [0.5, 0.0]])
+    travel = collision.first_contact(c_a, direction, c_b, 0.5)
+    np.testing.assert_array_equal(travel, [1.5, np.inf, np.inf, 0.0])  # ahead, passing by, behind, touching
+    grazing = collision.first_contact(np.zeros(2), np.array([1.0, 0.0]), np.array([2.0, 0.5]), 0.5)
+    assert grazing == pytest.approx(2.0)

@@ -158,16 +158,6 @@ def _start_kernel(
         target[i, 0], target[i, 1] = drawn[2, j], drawn[3, j]
 
 
-@njit(cache=True, nogil=True)
-def _cut_kernel(ball_a: np.ndarray, ball_b: np.ndarray, action: np.ndarray, c: np.ndarray, cut: np.ndarray) -> None:
-    """Sine of the angle between A's strike and the line A-B, the cut offset over the distance A-B, into ``cut``
-    (n,); ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
-    contact_distance = c[0]
-    for i in range(len(action)):
-        dx, dz = ball_b[i, 0] - ball_a[i, 0], ball_b[i, 1] - ball_a[i, 1]
-        cut[i] = action[i, 0] * contact_distance / math.sqrt(dx * dx + dz * dz)
-
-
 SHOT_COLUMNS = (
     "strike_velocity_x",
     "strike_velocity_z",
@@ -199,7 +189,6 @@ def _step_kernel(
     ball_a: np.ndarray,
     ball_b: np.ndarray,
     target: np.ndarray,
-    cut: np.ndarray,
     c: np.ndarray,
     shot: np.ndarray,
     flags: np.ndarray,
@@ -207,80 +196,102 @@ def _step_kernel(
     terminated: np.ndarray,
     obs: np.ndarray,
 ) -> None:
-    """One strike per episode, fused (the scalar kernels of :mod:`vegym.physics.collision`), and the next
-    observation, into the outputs: ``shot`` (n, 18) the ``SHOT_COLUMNS``, ``flags`` (n, 2) the ``FLAG_COLUMNS``,
-    ``reward``, ``terminated`` (every episode) and ``obs``. The state (the balls' and the target's start) is
-    unchanged. ``cut`` (rad) is the angle by which A's strike turns clockwise from the line A-B (``asin`` of
-    :func:`_cut_kernel`'s sine) and ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
+    """One strike per episode (the scalar kernels of :mod:`vegym.physics.collision`) and the next observation,
+    into the outputs: ``shot`` (n, 18) the ``SHOT_COLUMNS``, ``flags`` (n, 2) the ``FLAG_COLUMNS``, ``reward``,
+    ``terminated`` (every episode) and ``obs``. The state (the balls' and the target's start) is unchanged; ``c``
+    holds the parameters named in ``STEP_CONSTANTS``. A's strike turns clockwise from the line A-B by the angle
+    whose sine is the cut offset over the distance A-B, ``s = a0 R / D_ab``: its sine is ``-s`` and its cosine
+    ``sqrt(1 - s^2)``.
+
+    Written as passes over the batch that the compiler turns into SIMD code: the strike, the impact, the slides
+    (each into a few scratch arrays of its own: more would need too many run-time overlap checks for SIMD code),
+    the reward and flags, and the observation; then a scalar pass stores the rows of ``shot`` (strided)."""
     contact_distance, speed_max, deceleration, mass_a, mass_b, restitution = c[0], c[1], c[2], c[3], c[4], c[5]
     target_radius, target_distance_max, hit_bonus = c[6], c[8], c[9]
-    aim, strike, at_rest = np.empty(2), np.empty(2), np.zeros(2)  # A's direction and velocity, B's velocity
-    for i in range(len(action)):
-        ax, az, bx, bz = ball_a[i, 0], ball_a[i, 1], ball_b[i, 0], ball_b[i, 1]
+    n = len(action)
+    # The (n, 2) arrays as flat views, read and written at 2 i and 2 i + 1: the compiler's SIMD code for
+    # ``x[i, k]`` runs only where the row length, known at run time only, is 1 (it versions the loop on that).
+    a, b, t, u = ball_a.reshape(-1), ball_b.reshape(-1), target.reshape(-1), action.reshape(-1)
+    aim_x, aim_z, travel, impact, contact = np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n, np.bool_)
+    for i in range(n):  # A's strike: its direction, the distance it slides and its speed at the impact
+        ax, az, bx, bz = a[2 * i], a[2 * i + 1], b[2 * i], b[2 * i + 1]
         ox, oz = bx - ax, bz - az
+        square = ox * ox + oz * oz
+        distance = math.sqrt(square)
+        along_x, along_z = ox / distance, oz / distance
+        cut = u[2 * i] * contact_distance / distance
+        sin_t, cos_t = -cut, math.sqrt(max(1.0 - cut * cut, 0.0))  # |cut| <= R / D_ab < 1: max for SIMD (sqrt >= 0)
+        dx, dz = cos_t * along_x + sin_t * -along_z, cos_t * along_z + sin_t * along_x
+        speed = 0.5 * (u[2 * i + 1] + 1.0) * speed_max
+        stop = speed * speed / (2.0 * deceleration)
+        reach = collision.contact_one(dx * ox + dz * oz, square, contact_distance)
+        touch = reach <= stop
+        aim_x[i], aim_z[i], contact[i] = dx, dz, touch
+        impact[i] = collision.speed_after_one(speed, reach, deceleration) if touch else 0.0
+        travel[i] = reach if touch else stop
+    after_a_x, after_a_z, after_b_x, after_b_z = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    closing = np.empty(n)
+    for i in range(n):  # the impact at A's centre ``p``
+        bx, bz, dx, dz, v = b[2 * i], b[2 * i + 1], aim_x[i], aim_z[i], impact[i]
+        px, pz = a[2 * i] + travel[i] * dx, a[2 * i + 1] + travel[i] * dz
+        gap = math.sqrt((bx - px) * (bx - px) + (bz - pz) * (bz - pz))
+        nx, nz = (bx - px) / gap, (bz - pz) / gap
+        strike_x, strike_z = v * dx, v * dz
+        impulse = collision.impulse_one(strike_x * nx + strike_z * nz, mass_a, mass_b, restitution)  # B at rest
+        after_a_x[i], after_a_z[i] = strike_x - impulse / mass_a * nx, strike_z - impulse / mass_a * nz
+        after_b_x[i], after_b_z[i] = 0.0 + impulse / mass_b * nx, 0.0 + impulse / mass_b * nz
+        closing[i] = v * (dx * ((bx - px) / contact_distance) + dz * ((bz - pz) / contact_distance))
+    factor_a, factor_b, duration, miss = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    for i in range(n):  # the balls' slides to rest
+        ua_x, ua_z, ub_x, ub_z = after_a_x[i], after_a_z[i], after_b_x[i], after_b_z[i]
+        factor_a[i], _, time_a = collision.slide_one(ua_x * ua_x + ua_z * ua_z, deceleration)
+        factor_b[i], _, time_b = collision.slide_one(ub_x * ub_x + ub_z * ub_z, deceleration)
+        mx, mz = b[2 * i] + ub_x * factor_b[i] - t[2 * i], b[2 * i + 1] + ub_z * factor_b[i] - t[2 * i + 1]
+        miss[i] = math.sqrt(mx * mx + mz * mz)
+        duration[i] = (0.5 * (u[2 * i + 1] + 1.0) * speed_max - impact[i]) / deceleration + max(time_a, time_b)
+    f, miss_term = flags.reshape(-1), np.empty(n)
+    for i in range(n):  # the reward and flags
+        miss_term[i], hit = -miss[i] / target_distance_max, miss[i] <= target_radius
+        f[2 * i], f[2 * i + 1] = contact[i], hit
+        reward[i] = miss_term[i] + (hit_bonus if hit else 0.0)
+        terminated[i] = True
+    for i in range(n):  # stores into the rows of ``shot``: strided, by scalar code
+        speed, dx, dz = 0.5 * (u[2 * i + 1] + 1.0) * speed_max, aim_x[i], aim_z[i]
+        px, pz = a[2 * i] + travel[i] * dx, a[2 * i + 1] + travel[i] * dz
+        row = shot[i]
+        row[0], row[1], row[2], row[3] = speed * dx, speed * dz, px, pz
+        row[4], row[5], row[6], row[7] = after_a_x[i], after_a_z[i], after_b_x[i], after_b_z[i]
+        row[8], row[9] = px + after_a_x[i] * factor_a[i], pz + after_a_z[i] * factor_a[i]
+        row[10], row[11] = b[2 * i] + after_b_x[i] * factor_b[i], b[2 * i + 1] + after_b_z[i] * factor_b[i]
+        row[12] = closing[i]
+        row[13] = collision.energy_loss_one(closing[i], mass_a, mass_b, restitution)
+        row[14], row[15], row[16], row[17] = duration[i], miss[i], miss_term[i], hit_bonus if f[2 * i + 1] else 0.0
+    _observe(ball_a, ball_b, target, c, obs)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _observe(ball_a: np.ndarray, ball_b: np.ndarray, target: np.ndarray, c: np.ndarray, obs: np.ndarray) -> None:
+    """Observations (n, 4) into ``obs``, in the frame of the line A-B; ``c`` holds the parameters named in
+    ``STEP_CONSTANTS``. Written as a pass over the batch that the compiler turns into SIMD code."""
+    target_distance_max, ball_distance_max = c[8], c[11]
+    n = len(ball_a)
+    a, b, t, o = ball_a.reshape(-1), ball_b.reshape(-1), target.reshape(-1), obs.reshape(-1)  # see _step_kernel
+    for i in range(n):
+        ox, oz = b[2 * i] - a[2 * i], b[2 * i + 1] - a[2 * i + 1]
         distance = math.sqrt(ox * ox + oz * oz)
         along_x, along_z = ox / distance, oz / distance
-        turn = -cut[i]
-        sin_t, cos_t = vmath.sincos(turn)
-        aim_x, aim_z = cos_t * along_x + sin_t * -along_z, cos_t * along_z + sin_t * along_x
-        speed = 0.5 * (action[i, 1] + 1.0) * speed_max
-        stop = speed * speed / (2.0 * deceleration)
-        aim[0], aim[1] = aim_x, aim_z
-        travel = collision.first_contact_one(ball_a[i], aim, ball_b[i], contact_distance)
-        contact = travel <= stop
-        impact_speed = 0.0
-        if contact:
-            impact_speed = collision.speed_after_one(speed, travel, deceleration)
-        else:
-            travel = stop
-        row = shot[i]
-        point, after_a, after_b, rest_a, rest_b = row[2:4], row[4:6], row[6:8], row[8:10], row[10:12]
-        point[0], point[1] = ax + travel * aim_x, az + travel * aim_z
-        closing = impact_speed * (
-            aim_x * ((bx - point[0]) / contact_distance) + aim_z * ((bz - point[1]) / contact_distance)
-        )
-        strike[0], strike[1] = impact_speed * aim_x, impact_speed * aim_z
-        collision.impact_one(point, ball_b[i], strike, at_rest, mass_a, mass_b, restitution, after_a, after_b)
-        _, time_a = collision.slide_one(point, after_a, deceleration, rest_a)
-        _, time_b = collision.slide_one(ball_b[i], after_b, deceleration, rest_b)
-        mx, mz = rest_b[0] - target[i, 0], rest_b[1] - target[i, 1]
-        miss = math.sqrt(mx * mx + mz * mz)
-        hit = miss <= target_radius
-        miss_term, hit_term = -miss / target_distance_max, hit_bonus if hit else 0.0
-        row[0], row[1] = speed * aim_x, speed * aim_z
-        row[12] = closing
-        row[13] = collision.energy_loss_one(closing, mass_a, mass_b, restitution)
-        row[14] = (speed - impact_speed) / deceleration + max(time_a, time_b)
-        row[15], row[16], row[17] = miss, miss_term, hit_term
-        flags[i, 0], flags[i, 1] = contact, hit
-        reward[i] = miss_term + hit_term
-        terminated[i] = True
-        _observe_row(i, ball_a, ball_b, target, c, obs)
+        tx, tz = t[2 * i] - b[2 * i], t[2 * i + 1] - b[2 * i + 1]
+        target_distance = math.sqrt(tx * tx + tz * tz)
+        o[4 * i] = distance / ball_distance_max
+        o[4 * i + 1] = target_distance / target_distance_max
+        o[4 * i + 2] = (tx * -along_z + tz * along_x) / target_distance
+        o[4 * i + 3] = (tx * along_x + tz * along_z) / target_distance
 
 
-@njit(cache=True, nogil=True, inline="always")
-def _observe_row(
-    i: int, ball_a: np.ndarray, ball_b: np.ndarray, target: np.ndarray, c: np.ndarray, obs: np.ndarray
-) -> None:
-    """Observation of episode ``i`` into ``obs[i]``, in the frame of the line A-B; ``c`` holds the parameters
-    named in ``STEP_CONSTANTS``."""
-    target_distance_max, ball_distance_max = c[8], c[11]
-    ox, oz = ball_b[i, 0] - ball_a[i, 0], ball_b[i, 1] - ball_a[i, 1]
-    distance = math.sqrt(ox * ox + oz * oz)
-    along_x, along_z = ox / distance, oz / distance
-    tx, tz = target[i, 0] - ball_b[i, 0], target[i, 1] - ball_b[i, 1]
-    target_distance = math.sqrt(tx * tx + tz * tz)
-    obs[i, 0] = distance / ball_distance_max
-    obs[i, 1] = target_distance / target_distance_max
-    obs[i, 2] = (tx * -along_z + tz * along_x) / target_distance
-    obs[i, 3] = (tx * along_x + tz * along_z) / target_distance
-
-
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, error_model="numpy")
 def _observe_kernel(ball_a: np.ndarray, ball_b: np.ndarray, target: np.ndarray, c: np.ndarray, obs: np.ndarray) -> None:
-    """Observations (n, 4) into ``obs`` (:func:`_observe_row`)."""
-    for i in range(len(ball_a)):
-        _observe_row(i, ball_a, ball_b, target, c, obs)
+    """Observations (n, 4) into ``obs`` (:func:`_observe`)."""
+    _observe(ball_a, ball_b, target, c, obs)
 
 
 class BilliardsTask(Task[BilliardsParams]):
@@ -324,18 +335,14 @@ class BilliardsTask(Task[BilliardsParams]):
 
     def output_shapes(self) -> dict[str, tuple[tuple[int, ...], type]]:
         return {
-            "cut": ((), np.float64),
             "shot": ((len(SHOT_COLUMNS),), np.float64),
             "flags": ((len(FLAG_COLUMNS),), np.bool_),
         }
 
     def step(self, state: State, action: np.ndarray, out: State) -> None:
-        a, b, c, cut = state["ball_a"], state["ball_b"], self._constants, out["cut"]
-        _cut_kernel(a, b, action, c, cut)
-        np.arcsin(cut, cut)  # numpy's arcsin, not libm's: they differ by an ulp at times
         _step_kernel(
-            action, a, b, state["target"], cut, c, out["shot"], out["flags"], out["reward"], out["terminated"],
-            out["obs"],
+            action, state["ball_a"], state["ball_b"], state["target"], self._constants, out["shot"], out["flags"],
+            out["reward"], out["terminated"], out["obs"],
         )  # fmt: skip
 
     def info(self, state: State, out: State) -> Info:

@@ -39,70 +39,40 @@ def _rows(vectors: list[np.ndarray], scalars: list[np.ndarray | float]) -> tuple
     return shape, rows, columns
 
 
-@njit(cache=True, inline="always")
-def dot_one(a: np.ndarray, b: np.ndarray) -> float:
-    """``a . b`` of two (d,) vectors, summed in ``np.sum``'s order."""
-    total = 0.0
-    for k in range(len(a)):
-        total += a[k] * b[k]
-    return total
+@njit(cache=True, error_model="numpy", inline="always")
+def impulse_one(closing_speed: float, mass_a: float, mass_b: float, restitution: float) -> float:
+    """Impulse ``J = (1 + e) mu w`` (N s) along the line of centres of one impact at closing speed ``w`` (m/s), 0
+    if the spheres are not closing (``w <= 0``): the scalar core of :func:`oblique_impact`, which the array
+    function and Billiards-v0's kernel share."""
+    return (1.0 + restitution) * (mass_a * mass_b / (mass_a + mass_b)) * closing_speed if closing_speed > 0.0 else 0.0
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def impact_one(
-    c_a: np.ndarray,
-    c_b: np.ndarray,
-    v_a: np.ndarray,
-    v_b: np.ndarray,
-    mass_a: float,
-    mass_b: float,
-    restitution: float,
-    u_a: np.ndarray,
-    u_b: np.ndarray,
-) -> None:
-    """:func:`oblique_impact` of one pair of spheres ((d,) vectors, SI), written into ``u_a`` and ``u_b``; the one
-    compiled form that the array function and Billiards-v0's kernel run."""
-    d = len(c_a)
-    gap = 0.0
-    for k in range(d):
-        gap += (c_b[k] - c_a[k]) * (c_b[k] - c_a[k])
-    gap = math.sqrt(gap)
-    w = 0.0
-    for k in range(d):
-        w += (v_a[k] - v_b[k]) * ((c_b[k] - c_a[k]) / gap)
-    impulse = (1.0 + restitution) * (mass_a * mass_b / (mass_a + mass_b)) * w if w > 0.0 else 0.0
-    for k in range(d):
-        n = (c_b[k] - c_a[k]) / gap
-        u_a[k], u_b[k] = v_a[k] - impulse / mass_a * n, v_b[k] + impulse / mass_b * n
-
-
-@njit(cache=True, error_model="numpy", inline="always")
-def first_contact_one(c_a: np.ndarray, direction: np.ndarray, c_b: np.ndarray, contact_distance: float) -> float:
-    """:func:`first_contact` of one sphere ((d,) vectors, m); ``+inf`` if it never touches."""
-    b, square = 0.0, 0.0
-    for k in range(len(c_a)):
-        b += direction[k] * (c_b[k] - c_a[k])
-        square += (c_b[k] - c_a[k]) * (c_b[k] - c_a[k])
+def contact_one(b: float, square: float, contact_distance: float) -> float:
+    """:func:`first_contact` of one sphere from ``b = d . (c_b - c_a)`` (m) and ``|c_b - c_a|^2`` (m^2); ``+inf``
+    if it never touches."""
     disc = b * b - (square - contact_distance * contact_distance)
-    return max(b - math.sqrt(disc), 0.0) if disc >= 0.0 and b > 0.0 else math.inf
+    # abs(disc) is disc wherever the root is used; the root of a value known >= 0 is the sqrt instruction, not a
+    # libm call, so a loop over this gets SIMD code
+    root = math.sqrt(abs(disc))
+    return max(b - root, 0.0) if (disc >= 0.0) & (b > 0.0) else math.inf
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def slide_one(position: np.ndarray, velocity: np.ndarray, deceleration: float, rest: np.ndarray) -> tuple[float, float]:
-    """:func:`slide` of one ball ((d,) vectors, SI): rest point written into ``rest``; distance and time returned."""
-    speed = math.sqrt(dot_one(velocity, velocity))
-    for k in range(len(position)):
-        rest[k] = position[k] + velocity[k] * (speed / (2.0 * deceleration))
-    return speed**2 / (2.0 * deceleration), speed / deceleration
+def slide_one(square_speed: float, deceleration: float) -> tuple[float, float, float]:
+    """:func:`slide` of one ball from its squared speed ``|v|^2`` (m^2/s^2): the time factor ``|v| / (2 a)`` (s)
+    that carries it to rest at ``position + factor velocity``, the distance (m) and the time (s)."""
+    speed = math.sqrt(square_speed)
+    return speed / (2.0 * deceleration), speed**2 / (2.0 * deceleration), speed / deceleration
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", inline="always")
 def speed_after_one(speed: float, distance: float, deceleration: float) -> float:
     """:func:`speed_after` of one ball (m/s, m, m/s^2)."""
     return math.sqrt(max(speed * speed - 2.0 * deceleration * distance, 0.0))
 
 
-@njit(cache=True)
+@njit(cache=True, error_model="numpy", inline="always")
 def energy_loss_one(closing_speed: float, mass_a: float, mass_b: float, restitution: float) -> float:
     """:func:`energy_loss` of one impact (J)."""
     mu = mass_a * mass_b / (mass_a + mass_b)
@@ -115,7 +85,17 @@ def _impact_each(
 ) -> tuple[np.ndarray, np.ndarray]:
     u_a, u_b = np.empty_like(v_a), np.empty_like(v_b)
     for i in range(len(c_a)):
-        impact_one(c_a[i], c_b[i], v_a[i], v_b[i], m_a[i], m_b[i], e[i], u_a[i], u_b[i])
+        gap = 0.0
+        for k in range(c_a.shape[1]):
+            gap += (c_b[i, k] - c_a[i, k]) * (c_b[i, k] - c_a[i, k])
+        gap = math.sqrt(gap)
+        w = 0.0
+        for k in range(c_a.shape[1]):
+            w += (v_a[i, k] - v_b[i, k]) * ((c_b[i, k] - c_a[i, k]) / gap)
+        impulse = impulse_one(w, m_a[i], m_b[i], e[i])
+        for k in range(c_a.shape[1]):
+            normal = (c_b[i, k] - c_a[i, k]) / gap
+            u_a[i, k], u_b[i, k] = v_a[i, k] - impulse / m_a[i] * normal, v_b[i, k] + impulse / m_b[i] * normal
     return u_a, u_b
 
 
@@ -123,7 +103,11 @@ def _impact_each(
 def _contact_each(c_a: np.ndarray, direction: np.ndarray, c_b: np.ndarray, contact_distance: float) -> np.ndarray:
     out = np.empty(len(c_a))
     for i in range(len(c_a)):
-        out[i] = first_contact_one(c_a[i], direction[i], c_b[i], contact_distance)
+        b, square = 0.0, 0.0
+        for k in range(c_a.shape[1]):
+            b += direction[i, k] * (c_b[i, k] - c_a[i, k])
+            square += (c_b[i, k] - c_a[i, k]) * (c_b[i, k] - c_a[i, k])
+        out[i] = contact_one(b, square, contact_distance)
     return out
 
 
@@ -131,7 +115,12 @@ def _contact_each(c_a: np.ndarray, direction: np.ndarray, c_b: np.ndarray, conta
 def _slide_each(position: np.ndarray, velocity: np.ndarray, deceleration: float) -> tuple[np.ndarray, ...]:
     rest, distance, time = np.empty_like(position), np.empty(len(position)), np.empty(len(position))
     for i in range(len(position)):
-        distance[i], time[i] = slide_one(position[i], velocity[i], deceleration, rest[i])
+        square = 0.0
+        for k in range(position.shape[1]):
+            square += velocity[i, k] * velocity[i, k]
+        factor, distance[i], time[i] = slide_one(square, deceleration)
+        for k in range(position.shape[1]):
+            rest[i, k] = position[i, k] + velocity[i, k] * factor
     return rest, distance, time
 
 
