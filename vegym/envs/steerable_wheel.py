@@ -142,9 +142,9 @@ def _step_kernel(
     last = n_waypoints - 1
     dv = max_acceleration * dt
     actions, xz, points, term = action.reshape(-1), position.reshape(-1), waypoints.reshape(-1), terms.reshape(-1)
-    scratch = np.empty((7 + 2 * SHOWN_WAYPOINTS, n))  # one allocation: it counts in a single env's step
-    progress, start_x, start_z, target_x = scratch[0], scratch[1], scratch[2], scratch[3]
-    target_z, passed, capturing = scratch[4], scratch[5], scratch[6]
+    # separate allocations: the compiler knows they do not overlap (rows of one array keep the loops slow)
+    progress, start_x, start_z, end_x, end_z = np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    target_x, target_z, passed, capturing = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
     _gather_waypoints(waypoints, index, 0, target_x, target_z)
     for i in range(n):
         command = 0.5 * max_speed * (actions[2 * i] + 1.0)
@@ -157,9 +157,10 @@ def _step_kernel(
         progress[i] = math.sqrt(ax * ax + az * az) - math.sqrt(bx * bx + bz * bz)
         capture = (index[i] <= last) & (_point_segment_distance(tx, tz, sx, sz, ex, ez) <= capture_radius)
         capturing[i], passed[i] = 1.0 if capture else 0.0, 0.0
-        start_x[i], start_z[i] = sx, sz
-        xz[2 * i], xz[2 * i + 1] = ex, ez
+        start_x[i], start_z[i], end_x[i], end_z[i] = sx, sz, ex, ez
         speed[i], steer[i] = v, yaw_rate * dt
+    for i in range(n):  # strided stores in a pass of their own
+        xz[2 * i], xz[2 * i + 1] = end_x[i], end_z[i]
     for i in range(n):  # the waypoints passed, for the episodes that pass their current one
         if capturing[i] != 0.0:
             k = index[i] + 1
@@ -182,7 +183,7 @@ def _step_kernel(
         term[5 * i], term[5 * i + 1], term[5 * i + 2], term[5 * i + 3], term[5 * i + 4] = t0, t1, t2, t3, t4
         reward[i] = t0 + t1 + t2 + t3 + t4
         success[i], terminated[i] = done, done or outside
-    _observe_into(position, heading, speed, waypoints, index, c, obs, scratch[7:])
+    _observe_kernel(position, heading, speed, waypoints, index, c, obs)
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -205,40 +206,27 @@ def _observe_kernel(
     c: np.ndarray,
     obs: np.ndarray,
 ) -> None:
-    """Observations (n, 8) written into ``obs``; ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
-    shown = np.empty((2 * SHOWN_WAYPOINTS, len(index)))
-    _observe_into(position, heading, speed, waypoints, index, c, obs, shown)
-
-
-@njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _observe_into(
-    position: np.ndarray,
-    heading: np.ndarray,
-    speed: np.ndarray,
-    waypoints: np.ndarray,
-    index: np.ndarray,
-    c: np.ndarray,
-    obs: np.ndarray,
-    shown: np.ndarray,
-) -> None:
-    """:func:`_observe_kernel` with scratch space ``shown`` (2 * SHOWN_WAYPOINTS, n) for the shown waypoints'
-    coordinates: one SIMD pass over the batch after their gathering."""
+    """Observations (n, 8) written into ``obs``; ``c`` holds the parameters named in ``STEP_CONSTANTS``. Written as
+    SIMD passes over the batch: the heading's sine and cosine, then per shown waypoint (gathered first) its
+    distance and bearing, then speed and progress."""
     max_speed, diagonal = c[0], c[12]
     n, n_waypoints = len(index), waypoints.shape[1]
     xz, out = position.reshape(-1), obs.reshape(-1)
     width = OBS_PER_WAYPOINT * SHOWN_WAYPOINTS + 2
-    for j in range(SHOWN_WAYPOINTS):
-        _gather_waypoints(waypoints, index, j, shown[2 * j], shown[2 * j + 1])
+    sines, cosines, shown_x, shown_z = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
     for i in range(n):
-        sin_h, cos_h = vmath.sincos(heading[i])
-        for j in range(SHOWN_WAYPOINTS):
-            dx, dz = shown[2 * j, i] - xz[2 * i], shown[2 * j + 1, i] - xz[2 * i + 1]
-            ahead, leftward = dx * sin_h + dz * cos_h, dx * cos_h - dz * sin_h
+        sines[i], cosines[i] = vmath.sincos(heading[i])
+    for j in range(SHOWN_WAYPOINTS):
+        _gather_waypoints(waypoints, index, j, shown_x, shown_z)
+        for i in range(n):
+            dx, dz = shown_x[i] - xz[2 * i], shown_z[i] - xz[2 * i + 1]
+            ahead, leftward = dx * sines[i] + dz * cosines[i], dx * cosines[i] - dz * sines[i]
             distance = math.sqrt(ahead * ahead + leftward * leftward)
             column = width * i + OBS_PER_WAYPOINT * j
             out[column] = min(distance / diagonal, 1.0)
             out[column + 1] = min(max(leftward / distance, -1.0), 1.0) if distance > 0.0 else 0.0
             out[column + 2] = min(max(ahead / distance, -1.0), 1.0) if distance > 0.0 else 1.0
+    for i in range(n):
         out[width * i + width - 2] = speed[i] / max_speed
         out[width * i + width - 1] = index[i] / n_waypoints
 
