@@ -134,12 +134,13 @@ def _start_kernel(
     and ``target`` ((n, 2), m), from 4 uniform lanes of each key's setup draw: distance A-B, bearing of B,
     distance of the target from B and its bearing off the line A-B. ``c`` holds the parameters named in
     ``STEP_CONSTANTS``. Written as a pass over the keys that the compiler turns into SIMD code (the draws, into
-    scratch rows) and a pass that stores them into the state's rows (strided, and scattered)."""
+    scratch arrays: separate allocations, which the compiler knows apart) and a pass that stores them into the
+    state's rows (strided, and scattered)."""
     target_distance_min, target_distance_max, ball_distance_min, ball_distance_max, bearing_max = (
         c[7], c[8], c[10], c[11], c[12]
     )  # fmt: skip
     m = len(keys)
-    drawn = np.empty((4, m))  # B's x and z, the target's x and z
+    b_x, b_z, target_x, target_z = np.empty(m), np.empty(m), np.empty(m), np.empty(m)
     for j in range(m):
         base = rng.stream_base(keys[j], offset, np.uint64(0))
         distance = ball_distance_min + (ball_distance_max - ball_distance_min) * rng.lane(base, 0)
@@ -149,13 +150,13 @@ def _start_kernel(
         sin_line, cos_line = vmath.sincos(line)
         sin_leave, cos_leave = vmath.sincos(leave)
         bx, bz = distance * cos_line, distance * sin_line
-        drawn[0, j], drawn[1, j] = bx, bz
-        drawn[2, j], drawn[3, j] = bx + target_distance * cos_leave, bz + target_distance * sin_leave
+        b_x[j], b_z[j] = bx, bz
+        target_x[j], target_z[j] = bx + target_distance * cos_leave, bz + target_distance * sin_leave
     for j in range(m):
         i = rows[j]
         ball_a[i, 0], ball_a[i, 1] = 0.0, 0.0
-        ball_b[i, 0], ball_b[i, 1] = drawn[0, j], drawn[1, j]
-        target[i, 0], target[i, 1] = drawn[2, j], drawn[3, j]
+        ball_b[i, 0], ball_b[i, 1] = b_x[j], b_z[j]
+        target[i, 0], target[i, 1] = target_x[j], target_z[j]
 
 
 SHOT_COLUMNS = (

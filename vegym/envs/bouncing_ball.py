@@ -145,6 +145,9 @@ def _step_kernel(
     """
     radius, gravity, rest_speed, height_scale, bounces_planned, success_error = c[0], c[1], c[2], c[3], c[4], c[5]
     n, lookahead = len(action), targets.shape[1] - 1
+    current, newest = np.empty(n), np.empty(n)  # targets' columns, contiguous: their row width is a runtime value
+    for i in range(n):
+        current[i], newest[i] = targets[i, 0], targets[i, lookahead]
     for i in range(n):
         e = 0.5 * (action[i, 0] + 1.0)
         v = speed[i]
@@ -153,7 +156,7 @@ def _step_kernel(
         rebound = 0.0 if at_rest else rebound
         apex = particle.apex_height_one(radius, rebound, gravity)
         flight = particle.ground_time_one(radius, rebound, radius, gravity)
-        target = targets[i, 0]
+        target = current[i]
         error = abs(apex - target) / height_scale
         errors = error_sum[i] + error
         success[i] = errors / (step[i] + 1) <= success_error
@@ -173,8 +176,9 @@ def _step_kernel(
         for i in range(n):
             targets[i, k] = targets[i, k + 1]
     for i in range(n):
-        last = targets[i, lookahead]
-        targets[i, lookahead] = _target(keys[i], step[i] + lookahead + 1, last, c, offsets)
+        newest[i] = _target(keys[i], step[i] + lookahead + 1, newest[i], c, offsets)
+    for i in range(n):
+        targets[i, lookahead] = newest[i]
     _observe_kernel(speed, targets, c, obs)
 
 

@@ -133,26 +133,28 @@ def _start_kernel(
     of each key's setup draw: launch height, target distance and bearing, wind speed and direction. ``c`` holds
     the parameters named in ``STEP_CONSTANTS``.
 
-    Written as a pass over the keys that the compiler turns into SIMD code (the draws, into scratch rows) and a
-    pass that stores them into the state's rows (strided, and scattered)."""
+    Written as a pass over the keys that the compiler turns into SIMD code (the draws, into scratch arrays:
+    separate allocations, which the compiler knows apart) and a pass that stores them into the state's rows
+    (strided, and scattered)."""
     m = len(keys)
-    drawn = np.empty((6, m))  # launch height, target x and z, bearing, wind x and z
+    height, target_x, target_z = np.empty(m), np.empty(m), np.empty(m)
+    direction, wind_x, wind_z = np.empty(m), np.empty(m), np.empty(m)
     for j in range(m):
         base = rng.stream_base(keys[j], offset, np.uint64(0))
-        height = c[0] + (c[1] - c[0]) * rng.lane(base, 0)
+        height[j] = c[0] + (c[1] - c[0]) * rng.lane(base, 0)
         distance = c[2] + (c[3] - c[2]) * rng.lane(base, 1)
-        direction = np.pi * (2.0 * rng.lane(base, 2) - 1.0)
+        direction[j] = np.pi * (2.0 * rng.lane(base, 2) - 1.0)
         wind_speed = c[4] * rng.lane(base, 3)
-        sin_b, cos_b = vmath.sincos(direction)
+        sin_b, cos_b = vmath.sincos(direction[j])
         sin_w, cos_w = vmath.sincos(np.pi * (2.0 * rng.lane(base, 4) - 1.0))
-        drawn[0, j], drawn[1, j], drawn[2, j] = height, distance * cos_b, distance * sin_b
-        drawn[3, j], drawn[4, j], drawn[5, j] = direction, wind_speed * cos_w, wind_speed * sin_w
+        target_x[j], target_z[j] = distance * cos_b, distance * sin_b
+        wind_x[j], wind_z[j] = wind_speed * cos_w, wind_speed * sin_w
     for j in range(m):
         i = rows[j]
-        launch[i, 0], launch[i, 1], launch[i, 2] = 0.0, drawn[0, j], 0.0
-        target[i, 0], target[i, 1], target[i, 2] = drawn[1, j], 0.0, drawn[2, j]
-        bearing[i] = drawn[3, j]
-        wind[i, 0], wind[i, 1], wind[i, 2] = drawn[4, j], 0.0, drawn[5, j]
+        launch[i, 0], launch[i, 1], launch[i, 2] = 0.0, height[j], 0.0
+        target[i, 0], target[i, 1], target[i, 2] = target_x[j], 0.0, target_z[j]
+        bearing[i] = direction[j]
+        wind[i, 0], wind[i, 1], wind[i, 2] = wind_x[j], 0.0, wind_z[j]
         landing[i, 0], landing[i, 1], landing[i, 2] = np.nan, np.nan, np.nan
 
 
@@ -174,33 +176,36 @@ def _shoot(
     ``reward``. ``bearing`` is the target's (rad); ``c`` holds the parameters named in ``STEP_CONSTANTS``.
 
     Written as a pass over the batch that the compiler turns into SIMD code (the shot, into 1-d scratch arrays:
-    separate arrays, since the compiler must check each written array against each read one) and a pass for the
-    reward terms and the strided stores."""
+    separate allocations, since the compiler must check each written array against each read one; 2-d arrays
+    through flat views, whose constant row widths keep the SIMD path) and a pass for the reward terms and the
+    strided stores."""
     target_distance_max, speed_min, speed_max, hit_radius, hit_bonus, gravity, radius = (
         c[3], c[5], c[6], c[7], c[8], c[9], c[10]
     )  # fmt: skip
-    n = len(action)
-    scratch = np.empty(7 * n)
-    vx, vy, vz, flight_time = scratch[:n], scratch[n : 2 * n], scratch[2 * n : 3 * n], scratch[3 * n : 4 * n]
-    x, z, miss = scratch[4 * n : 5 * n], scratch[5 * n : 6 * n], scratch[6 * n :]
+    n, width = len(action), shot.shape[1]
+    a, p, t, w = action.reshape(-1), launch.reshape(-1), target.reshape(-1), wind.reshape(-1)
+    vx, vy, vz, flight_time = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    x, z, miss = np.empty(n), np.empty(n), np.empty(n)
     for i in range(n):
-        speed = speed_min + 0.5 * (action[i, 2] + 1.0) * (speed_max - speed_min)
-        d = projectile.direction_one(ELEVATION_LIMIT * action[i, 0], bearing[i] + AZIMUTH_LIMIT * action[i, 1])
+        speed = speed_min + 0.5 * (a[3 * i + 2] + 1.0) * (speed_max - speed_min)
+        d = projectile.direction_one(ELEVATION_LIMIT * a[3 * i], bearing[i] + AZIMUTH_LIMIT * a[3 * i + 1])
         vx[i], vy[i], vz[i] = speed * d[0], speed * d[1], speed * d[2]
         x[i], z[i], flight_time[i] = projectile.landing_one(
-            (launch[i, 0], launch[i, 1], launch[i, 2]), (vx[i], vy[i], vz[i]), (wind[i, 0], wind[i, 1], wind[i, 2]),
+            (p[3 * i], p[3 * i + 1], p[3 * i + 2]), (vx[i], vy[i], vz[i]), (w[3 * i], w[3 * i + 1], w[3 * i + 2]),
             gravity, radius,
         )  # fmt: skip
-        mx, mz = x[i] - target[i, 0], z[i] - target[i, 2]
+        mx, mz = x[i] - t[3 * i], z[i] - t[3 * i + 2]
         miss[i] = math.sqrt(mx * mx + mz * mz)
+    landed, columns = landing.reshape(-1), shot.reshape(-1)
     for i in range(n):
         hit = miss[i] <= hit_radius
         miss_term = -miss[i] / target_distance_max
         hit_term = hit_bonus * (1.0 - (miss[i] / hit_radius) ** 2) if hit else 0.0
         success[i], reward[i] = hit, miss_term + hit_term
-        landing[i, 0], landing[i, 1], landing[i, 2] = x[i], radius, z[i]
-        shot[i, 0], shot[i, 1], shot[i, 2], shot[i, 3], shot[i, 4] = vx[i], vy[i], vz[i], flight_time[i], miss[i]
-        shot[i, 5], shot[i, 6] = miss_term, hit_term
+        landed[3 * i], landed[3 * i + 1], landed[3 * i + 2] = x[i], radius, z[i]
+        row = width * i
+        columns[row], columns[row + 1], columns[row + 2], columns[row + 3] = vx[i], vy[i], vz[i], flight_time[i]
+        columns[row + 4], columns[row + 5], columns[row + 6] = miss[i], miss_term, hit_term
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -232,19 +237,16 @@ def _observe(
 ) -> None:
     """Observations (n, 4) into ``obs``, in the target frame (:meth:`ProjectileTask.target_frame`) of the
     target's ``bearing`` (rad); ``c`` holds the parameters named in ``STEP_CONSTANTS``. Written as a pass over
-    the batch that the compiler turns into SIMD code (into scratch rows) and a pass that stores the rows."""
+    the batch that the compiler turns into SIMD code, through flat views."""
     target_distance_max, height_scale, wind_scale = c[3], c[11], c[12]
-    n = len(bearing)
-    values = np.empty((4, n))
-    for i in range(n):
-        dx, dz = target[i, 0] - launch[i, 0], target[i, 2] - launch[i, 2]
+    p, t, w, out = launch.reshape(-1), target.reshape(-1), wind.reshape(-1), obs.reshape(-1)
+    for i in range(len(bearing)):
+        dx, dz = t[3 * i] - p[3 * i], t[3 * i + 2] - p[3 * i + 2]
         sin_b, cos_b = vmath.sincos(bearing[i])
-        values[0, i] = math.sqrt(dx * dx + dz * dz) / target_distance_max
-        values[1, i] = launch[i, 1] / height_scale
-        values[2, i] = (wind[i, 0] * cos_b + wind[i, 2] * sin_b) / wind_scale  # the wind is horizontal
-        values[3, i] = (wind[i, 0] * -sin_b + wind[i, 2] * cos_b) / wind_scale
-    for i in range(n):
-        obs[i, 0], obs[i, 1], obs[i, 2], obs[i, 3] = values[0, i], values[1, i], values[2, i], values[3, i]
+        out[4 * i] = math.sqrt(dx * dx + dz * dz) / target_distance_max
+        out[4 * i + 1] = p[3 * i + 1] / height_scale
+        out[4 * i + 2] = (w[3 * i] * cos_b + w[3 * i + 2] * sin_b) / wind_scale  # the wind is horizontal
+        out[4 * i + 3] = (w[3 * i] * -sin_b + w[3 * i + 2] * cos_b) / wind_scale
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

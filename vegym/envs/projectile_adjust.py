@@ -88,9 +88,10 @@ def _step_kernel(
     max_shots, memory, n = c[2], misses.shape[1], len(action)
     _shoot(action, launch, target, wind, bearing, landing, shot_c, shot, success, reward)
     along, across = np.empty(n), np.empty(n)
+    landed, t = landing.reshape(-1), target.reshape(-1)  # flat views: constant row widths keep the SIMD path
     for i in range(n):
         sin_b, cos_b = vmath.sincos(bearing[i])
-        dx, dy, dz = landing[i, 0] - target[i, 0], landing[i, 1] - target[i, 1], landing[i, 2] - target[i, 2]
+        dx, dy, dz = landed[3 * i] - t[3 * i], landed[3 * i + 1] - t[3 * i + 1], landed[3 * i + 2] - t[3 * i + 2]
         along[i] = dx * cos_b + dy * 0.0 + dz * sin_b  # the frame's unit vectors are horizontal
         across[i] = dx * -sin_b + dy * 0.0 + dz * cos_b
         shots[i] += 1
@@ -136,10 +137,11 @@ def _observe(
     target_distance_max, height_scale, max_shots, miss_scale = c[0], c[1], c[2], c[3]
     n = len(shots)
     distance, height, fired = np.empty(n), np.empty(n), np.empty(n)
+    p, t = launch.reshape(-1), target.reshape(-1)  # flat views: constant row widths keep the SIMD path
     for i in range(n):
-        dx, dz = target[i, 0] - launch[i, 0], target[i, 2] - launch[i, 2]
+        dx, dz = t[3 * i] - p[3 * i], t[3 * i + 2] - p[3 * i + 2]
         distance[i] = math.sqrt(dx * dx + dz * dz) / target_distance_max
-        height[i] = launch[i, 1] / height_scale
+        height[i] = p[3 * i + 1] / height_scale
         fired[i] = shots[i] / max_shots
     for i in range(n):
         obs[i, 0], obs[i, 1], obs[i, 2] = distance[i], height[i], fired[i]
