@@ -13,6 +13,7 @@ from vegym import rng
 from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
 from vegym.params import Params, invalid, param
 from vegym.physics import collision, vmath
+from vegym.physics.columns import scratch
 
 _SETUP_STREAM = 1
 
@@ -140,7 +141,7 @@ def _start_kernel(
         c[7], c[8], c[10], c[11], c[12]
     )  # fmt: skip
     m = len(keys)
-    b_x, b_z, target_x, target_z = np.empty(m), np.empty(m), np.empty(m), np.empty(m)
+    b_x, b_z, target_x, target_z = scratch(m), scratch(m), scratch(m), scratch(m)
     for j in range(m):
         base = rng.stream_base(keys[j], offset, np.uint64(0))
         distance = ball_distance_min + (ball_distance_max - ball_distance_min) * rng.lane(base, 0)
@@ -213,7 +214,7 @@ def _step_kernel(
     # The (n, 2) arrays as flat views, read and written at 2 i and 2 i + 1: the compiler's SIMD code for
     # ``x[i, k]`` runs only where the row length, known at run time only, is 1 (it versions the loop on that).
     a, b, t, u = ball_a.reshape(-1), ball_b.reshape(-1), target.reshape(-1), action.reshape(-1)
-    aim_x, aim_z, travel, impact, contact = np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n, np.bool_)
+    aim_x, aim_z, travel, impact, contact = scratch(n), scratch(n), scratch(n), scratch(n), np.empty(n, np.bool_)
     for i in range(n):  # A's strike: its direction, the distance it slides and its speed at the impact
         ax, az, bx, bz = a[2 * i], a[2 * i + 1], b[2 * i], b[2 * i + 1]
         ox, oz = bx - ax, bz - az
@@ -230,8 +231,8 @@ def _step_kernel(
         aim_x[i], aim_z[i], contact[i] = dx, dz, touch
         impact[i] = collision.speed_after_one(speed, reach, deceleration) if touch else 0.0
         travel[i] = reach if touch else stop
-    after_a_x, after_a_z, after_b_x, after_b_z = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
-    closing = np.empty(n)
+    after_a_x, after_a_z, after_b_x, after_b_z = scratch(n), scratch(n), scratch(n), scratch(n)
+    closing = scratch(n)
     for i in range(n):  # the impact at A's centre ``p``
         bx, bz, dx, dz, v = b[2 * i], b[2 * i + 1], aim_x[i], aim_z[i], impact[i]
         px, pz = a[2 * i] + travel[i] * dx, a[2 * i + 1] + travel[i] * dz
@@ -242,7 +243,7 @@ def _step_kernel(
         after_a_x[i], after_a_z[i] = strike_x - impulse / mass_a * nx, strike_z - impulse / mass_a * nz
         after_b_x[i], after_b_z[i] = 0.0 + impulse / mass_b * nx, 0.0 + impulse / mass_b * nz
         closing[i] = v * (dx * ((bx - px) / contact_distance) + dz * ((bz - pz) / contact_distance))
-    factor_a, factor_b, duration, miss = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    factor_a, factor_b, duration, miss = scratch(n), scratch(n), scratch(n), scratch(n)
     for i in range(n):  # the balls' slides to rest
         ua_x, ua_z, ub_x, ub_z = after_a_x[i], after_a_z[i], after_b_x[i], after_b_z[i]
         factor_a[i], _, time_a = collision.slide_one(ua_x * ua_x + ua_z * ua_z, deceleration)
@@ -250,7 +251,7 @@ def _step_kernel(
         mx, mz = b[2 * i] + ub_x * factor_b[i] - t[2 * i], b[2 * i + 1] + ub_z * factor_b[i] - t[2 * i + 1]
         miss[i] = math.sqrt(mx * mx + mz * mz)
         duration[i] = (0.5 * (u[2 * i + 1] + 1.0) * speed_max - impact[i]) / deceleration + max(time_a, time_b)
-    f, miss_term = flags.reshape(-1), np.empty(n)
+    f, miss_term = flags.reshape(-1), scratch(n)
     for i in range(n):  # the reward and flags
         miss_term[i], hit = -miss[i] / target_distance_max, miss[i] <= target_radius
         f[2 * i], f[2 * i + 1] = contact[i], hit

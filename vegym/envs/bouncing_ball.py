@@ -12,7 +12,7 @@ from vegym import rng
 from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
 from vegym.params import Params, invalid, param
 from vegym.physics import particle
-from vegym.physics.columns import pairwise_sum
+from vegym.physics.columns import pairwise_sum, scratch
 from vegym.physics.particle import STANDARD_GRAVITY, ParticleParams
 
 _FIRST_TARGET_STREAM = 1
@@ -145,7 +145,7 @@ def _step_kernel(
     """
     radius, gravity, rest_speed, height_scale, bounces_planned, success_error = c[0], c[1], c[2], c[3], c[4], c[5]
     n, lookahead = len(action), targets.shape[1] - 1
-    current, newest = np.empty(n), np.empty(n)  # targets' columns, contiguous: their row width is a runtime value
+    current, newest = scratch(n), scratch(n)  # targets' columns, contiguous: their row width is a runtime value
     for i in range(n):
         current[i], newest[i] = targets[i, 0], targets[i, lookahead]
     for i in range(n):

@@ -12,6 +12,7 @@ from vegym import rng
 from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
 from vegym.params import Params, invalid, param
 from vegym.physics import vmath, wheel
+from vegym.physics.columns import scratch
 
 _SETUP_STREAM = 1
 _TARGET_STREAM = 2
@@ -118,7 +119,7 @@ def _step_kernel(
     of their own), the targets and terms, the observation."""
     max_speed, max_acceleration, dt, tracking_weight, effort_weight, tolerance = c[0], c[1], c[2], c[3], c[4], c[5]
     n, g = len(action), radii.shape[1]
-    gear_speed, next_target, tracking, effort = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    gear_speed, next_target, tracking, effort = scratch(n), scratch(n), scratch(n), scratch(n)
     dv = max_acceleration * dt
     for i in range(n):
         v = min(max(max_speed * action[i, 0], speed[i] - dv), speed[i] + dv)
@@ -161,7 +162,7 @@ def _observe_rows(
     episode; ``c`` holds the parameters named in ``STEP_CONSTANTS``. The sines and cosines in a SIMD pass, the
     strided stores in another."""
     n = len(obs)
-    sine, cosine = np.empty(n), np.empty(n)
+    sine, cosine = scratch(n), scratch(n)
     for i in range(n):
         sine[i], cosine[i] = vmath.sincos(target[i] - output[i])
     for i in range(n):
@@ -185,7 +186,7 @@ def _observe_kernel(
     """Observations (n, 4) into ``obs``, against the targets in force at ``step``, in passes (see
     :func:`_step_kernel`)."""
     n = len(step)
-    target, output = np.empty(n), np.empty(n)
+    target, output = scratch(n), scratch(n)
     for i in range(n):
         target[i] = _target_one(key[i], step[i], interval_steps, target_offset)
         output[i] = angles[i, gears[i] - 1]

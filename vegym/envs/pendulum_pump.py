@@ -14,6 +14,7 @@ from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
 from vegym.envs.schedule import ScheduledParams
 from vegym.params import Params, invalid, param
 from vegym.physics import pendulum, vmath
+from vegym.physics.columns import scratch
 from vegym.physics.particle import STANDARD_GRAVITY
 from vegym.physics.pendulum import PendulumParams
 
@@ -107,8 +108,8 @@ def _step_kernel(
     g_over_l, damping, inertia, weight_moment = c[4], c[5], c[6], c[7]
     effort_weight, success_tolerance = c[8], c[9]
     n = len(action)
-    th, om, sine, cosine = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
-    tracking, effort = np.empty(n), np.empty(n)
+    th, om, sine, cosine = scratch(n), scratch(n), scratch(n), scratch(n)
+    tracking, effort = scratch(n), scratch(n)
     for i in range(n):
         torque[i] = max_torque * action[i, 0]
         th[i], om[i] = theta[i], omega[i]

@@ -13,6 +13,7 @@ from vegym import rng
 from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
 from vegym.params import Params, invalid, param
 from vegym.physics import projectile, vmath
+from vegym.physics.columns import scratch
 from vegym.physics.particle import STANDARD_GRAVITY
 from vegym.physics.projectile import ProjectileParams
 
@@ -137,8 +138,8 @@ def _start_kernel(
     separate allocations, which the compiler knows apart) and a pass that stores them into the state's rows
     (strided, and scattered)."""
     m = len(keys)
-    height, target_x, target_z = np.empty(m), np.empty(m), np.empty(m)
-    direction, wind_x, wind_z = np.empty(m), np.empty(m), np.empty(m)
+    height, target_x, target_z = scratch(m), scratch(m), scratch(m)
+    direction, wind_x, wind_z = scratch(m), scratch(m), scratch(m)
     for j in range(m):
         base = rng.stream_base(keys[j], offset, np.uint64(0))
         height[j] = c[0] + (c[1] - c[0]) * rng.lane(base, 0)
@@ -184,8 +185,8 @@ def _shoot(
     )  # fmt: skip
     n, width = len(action), shot.shape[1]
     a, p, t, w = action.reshape(-1), launch.reshape(-1), target.reshape(-1), wind.reshape(-1)
-    vx, vy, vz, flight_time = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
-    x, z, miss = np.empty(n), np.empty(n), np.empty(n)
+    vx, vy, vz, flight_time = scratch(n), scratch(n), scratch(n), scratch(n)
+    x, z, miss = scratch(n), scratch(n), scratch(n)
     for i in range(n):
         speed = speed_min + 0.5 * (a[3 * i + 2] + 1.0) * (speed_max - speed_min)
         d = projectile.direction_one(ELEVATION_LIMIT * a[3 * i], bearing[i] + AZIMUTH_LIMIT * a[3 * i + 1])

@@ -14,6 +14,7 @@ from vegym.envs.projectile import AZIMUTH_LIMIT, ELEVATION_LIMIT, ProjectileEnvP
 from vegym.envs.projectile import SHOT_COLUMNS as PROJECTILE_SHOT_COLUMNS
 from vegym.params import invalid, param
 from vegym.physics import projectile, vmath
+from vegym.physics.columns import scratch
 
 SHOT_FIELDS = 6
 """Observation entries per remembered shot: fired flag, miss along and across, and the shot's three actions."""
@@ -87,7 +88,7 @@ def _step_kernel(
     (the batch loop innermost), the newest entry and the observation."""
     max_shots, memory, n = c[2], misses.shape[1], len(action)
     _shoot(action, launch, target, wind, bearing, landing, shot_c, shot, success, reward)
-    along, across = np.empty(n), np.empty(n)
+    along, across = scratch(n), scratch(n)
     landed, t = landing.reshape(-1), target.reshape(-1)  # flat views: constant row widths keep the SIMD path
     for i in range(n):
         sin_b, cos_b = vmath.sincos(bearing[i])
@@ -136,7 +137,7 @@ def _observe(
     arrays), their strided stores, and one pass per remembered shot."""
     target_distance_max, height_scale, max_shots, miss_scale = c[0], c[1], c[2], c[3]
     n = len(shots)
-    distance, height, fired = np.empty(n), np.empty(n), np.empty(n)
+    distance, height, fired = scratch(n), scratch(n), scratch(n)
     p, t = launch.reshape(-1), target.reshape(-1)  # flat views: constant row widths keep the SIMD path
     for i in range(n):
         dx, dz = t[3 * i] - p[3 * i], t[3 * i + 2] - p[3 * i + 2]

@@ -13,6 +13,7 @@ from vegym import rng
 from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
 from vegym.params import Params, invalid, param
 from vegym.physics import vmath, wheel
+from vegym.physics.columns import scratch
 from vegym.physics.wheel import WheelParams
 
 _SETUP_STREAM = 1
@@ -143,8 +144,8 @@ def _step_kernel(
     dv = max_acceleration * dt
     actions, xz, points, term = action.reshape(-1), position.reshape(-1), waypoints.reshape(-1), terms.reshape(-1)
     # separate allocations: the compiler knows they do not overlap (rows of one array keep the loops slow)
-    progress, start_x, start_z, end_x, end_z = np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n)
-    target_x, target_z, passed, capturing = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    progress, start_x, start_z, end_x, end_z = scratch(n), scratch(n), scratch(n), scratch(n), scratch(n)
+    target_x, target_z, passed, capturing = scratch(n), scratch(n), scratch(n), scratch(n)
     _gather_waypoints(waypoints, index, 0, target_x, target_z)
     for i in range(n):
         command = 0.5 * max_speed * (actions[2 * i] + 1.0)
@@ -213,7 +214,7 @@ def _observe_kernel(
     n, n_waypoints = len(index), waypoints.shape[1]
     xz, out = position.reshape(-1), obs.reshape(-1)
     width = OBS_PER_WAYPOINT * SHOWN_WAYPOINTS + 2
-    sines, cosines, shown_x, shown_z = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    sines, cosines, shown_x, shown_z = scratch(n), scratch(n), scratch(n), scratch(n)
     for i in range(n):
         sines[i], cosines[i] = vmath.sincos(heading[i])
     for j in range(SHOWN_WAYPOINTS):

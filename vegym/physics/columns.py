@@ -1,9 +1,14 @@
-"""Array arguments prepared for the scalar numba kernels of the physics modules."""
+"""Array arguments prepared for the scalar numba kernels of the physics modules, and the kernels' scratch space."""
 
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+from numba import carray, njit, types
+from numba.core import cgutils
+from numba.extending import intrinsic
+
+SMALL_SCRATCH = 64
+"""Scratch arrays of at most this many elements live on the kernel's stack (no allocation)."""
 
 
 def flat_columns(*arrays: np.ndarray | float) -> tuple[tuple[int, ...], list[np.ndarray]]:
@@ -40,3 +45,22 @@ def pairwise_sum(values: np.ndarray) -> float:
     for i in range(n - n % 8, n):
         total += values[i]
     return total
+
+
+@intrinsic
+def _stack_floats(typingctx, count):  # noqa: ANN001, ANN202 (numba's intrinsic protocol)
+    """Pointer to ``count`` (a compile-time constant) float64s on the stack of the calling kernel."""
+
+    def codegen(context, builder, signature, args):  # noqa: ANN001, ANN202
+        return cgutils.alloca_once(builder, context.get_value_type(types.float64), size=args[0])
+
+    return types.CPointer(types.float64)(types.intp), codegen
+
+
+@njit(cache=True, inline="always")
+def scratch(n: int) -> np.ndarray:
+    """Uninitialised float64 scratch space of ``n`` elements for a kernel's passes, never returned or kept: on the
+    kernel's stack for ``n <= SMALL_SCRATCH`` (a single env's step allocates nothing), else on the heap. Either
+    way a memory of its own, which the compiler knows apart from every other array (rows of one array are not)."""
+    small = carray(_stack_floats(SMALL_SCRATCH), (SMALL_SCRATCH,))
+    return small[:n] if n <= SMALL_SCRATCH else np.empty(n)

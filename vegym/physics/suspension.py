@@ -27,7 +27,7 @@ from numba import njit
 
 from vegym.params import Params, param
 from vegym.physics import vmath
-from vegym.physics.columns import flat_columns
+from vegym.physics.columns import flat_columns, scratch
 from vegym.physics.particle import STANDARD_GRAVITY
 
 
@@ -175,7 +175,7 @@ def terrain_into(
     coefficients gathered from the columns into contiguous scratch, then its sine and cosine (``vmath.sincos``)
     added in. The one compiled form of the terrain, behind :func:`terrain` and Suspension-v0's step kernel."""
     n = len(distance)
-    angle, sine_coefficient, cosine_coefficient = np.empty(n), np.empty(n), np.empty(n)
+    angle, sine_coefficient, cosine_coefficient = scratch(n), scratch(n), scratch(n)
     for i in range(n):
         height[i], slope[i] = 0.0, 0.0
     for j in range(amplitude.shape[1]):

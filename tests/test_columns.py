@@ -1,0 +1,31 @@
+"""vegym.physics.columns: the kernels' scratch space and numpy's pairwise sum."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from numba import njit
+
+from vegym.physics.columns import SMALL_SCRATCH, pairwise_sum, scratch
+
+
+@njit
+def _fill_two(n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Two scratch arrays filled with different values, copied out (scratch itself is never returned)."""
+    a, b = scratch(n), scratch(n)
+    for i in range(n):
+        a[i], b[i] = float(i), -float(i) - 1.0
+    return a.copy(), b.copy()
+
+
+@pytest.mark.parametrize("n", [0, 1, SMALL_SCRATCH, SMALL_SCRATCH + 1, 10_000])
+def test_scratch_arrays_hold_n_floats_each_in_memory_of_their_own(n: int) -> None:
+    a, b = _fill_two(n)
+    np.testing.assert_array_equal(a, np.arange(n, dtype=float))
+    np.testing.assert_array_equal(b, -np.arange(n, dtype=float) - 1.0)
+
+
+@pytest.mark.parametrize("n", [1, 7, 8, 9, 100, 128, 129, 1000, 4099])
+def test_pairwise_sum_is_numpys_sum_bit_for_bit(n: int) -> None:
+    values = np.random.default_rng(n).normal(size=n) * 10.0 ** np.random.default_rng(n + 1).integers(-8, 8, n)
+    assert pairwise_sum(values) == np.sum(values)
