@@ -140,8 +140,10 @@ def _step_kernel(
     reward terms (apex error, rest), reward, is_success and terminated (at rest); ``c`` holds the parameters named
     in ``STEP_CONSTANTS``.
 
-    Written as passes over the batch, each a loop without calls or exits that the compiler turns into SIMD code
-    (the bounce, the targets' shift and draw, the observation), and one pass over the few balls that came to rest.
+    Written as passes over the batch: the bounce and the draw of the newest targets as loops without calls or
+    exits that the compiler turns into SIMD code (over contiguous copies of the targets' columns, whose row width
+    is a runtime value), the targets' shift and the observation (strided), and a pass over the few balls that came
+    to rest.
     """
     radius, gravity, rest_speed, height_scale, bounces_planned, success_error = c[0], c[1], c[2], c[3], c[4], c[5]
     n, lookahead = len(action), targets.shape[1] - 1
@@ -241,14 +243,9 @@ def _start_kernel(
 @njit(cache=True, nogil=True, error_model="numpy")
 def _observe_kernel(speed: np.ndarray, targets: np.ndarray, c: np.ndarray, obs: np.ndarray) -> None:
     """Observations (n, 3 + lookahead) written into ``obs``; ``c`` holds the parameters named in
-    ``STEP_CONSTANTS``. Loops over the batch innermost, for SIMD code."""
-    radius, height_scale, drop_speed = c[0], c[3], c[10]
+    ``STEP_CONSTANTS``."""
     for i in range(len(speed)):
-        v = speed[i] / drop_speed
-        obs[i, 0], obs[i, 1] = v, v * v
-    for k in range(targets.shape[1]):
-        for i in range(len(speed)):
-            obs[i, 2 + k] = (targets[i, k] - radius) / height_scale
+        _observe_row(i, speed, targets, c, obs)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -256,12 +253,18 @@ def _observe_rows_kernel(
     rows: np.ndarray, speed: np.ndarray, targets: np.ndarray, c: np.ndarray, obs: np.ndarray
 ) -> None:
     """:func:`_observe_kernel` of the episodes ``rows`` (int indices) only, into those rows of ``obs``."""
-    radius, height_scale, drop_speed = c[0], c[3], c[10]
     for r in rows:
-        v = speed[r] / drop_speed
-        obs[r, 0], obs[r, 1] = v, v * v
-        for k in range(targets.shape[1]):
-            obs[r, 2 + k] = (targets[r, k] - radius) / height_scale
+        _observe_row(r, speed, targets, c, obs)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _observe_row(i: int, speed: np.ndarray, targets: np.ndarray, c: np.ndarray, obs: np.ndarray) -> None:
+    """Observation of episode ``i`` into ``obs[i]``; ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
+    radius, height_scale, drop_speed = c[0], c[3], c[10]
+    v = speed[i] / drop_speed
+    obs[i, 0], obs[i, 1] = v, v * v
+    for k in range(targets.shape[1]):
+        obs[i, 2 + k] = (targets[i, k] - radius) / height_scale
 
 
 class BouncingBallTask(Task[BouncingBallParams]):
