@@ -116,3 +116,11 @@ def test_first_contact_is_inf_for_a_miss_or_a_sphere_behind_and_0_when_touching(
     np.testing.assert_array_equal(travel, [1.5, np.inf, np.inf, 0.0])  # ahead, passing by, behind, touching
     grazing = collision.first_contact(np.zeros(2), np.array([1.0, 0.0]), np.array([2.0, 0.5]), 0.5)
     assert grazing == pytest.approx(2.0)
+
+
+def test_reduced_mass_is_the_product_over_the_sum_for_any_shapes() -> None:
+    assert collision.reduced_mass(5.0, 3.0) == 15.0 / 8.0
+    np.testing.assert_array_equal(
+        collision.reduced_mass(np.array([[1.0], [2.0]]), np.array([1.0, 3.0])),
+        [[1.0 / 2.0, 3.0 / 4.0], [2.0 / 3.0, 6.0 / 5.0]],
+    )

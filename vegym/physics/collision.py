@@ -25,10 +25,6 @@ from numba import njit
 from vegym.physics.columns import flat_columns
 
 
-def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    return np.sum(a * b, axis=-1)
-
-
 def _rows(vectors: list[np.ndarray], scalars: list[np.ndarray | float]) -> tuple[tuple[int, ...], list, list]:
     """Vectors broadcast to one shape (..., d) as contiguous (N, d) float64 arrays, and scalars broadcast to its
     batch shape as (N,) columns (for the loops over the scalar kernels)."""
@@ -40,11 +36,17 @@ def _rows(vectors: list[np.ndarray], scalars: list[np.ndarray | float]) -> tuple
 
 
 @njit(cache=True, error_model="numpy", inline="always")
+def reduced_mass_one(mass_a: float, mass_b: float) -> float:
+    """``mu = m_a m_b / (m_a + m_b)`` (kg) of one pair: the scalar core of :func:`reduced_mass`."""
+    return mass_a * mass_b / (mass_a + mass_b)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
 def impulse_one(closing_speed: float, mass_a: float, mass_b: float, restitution: float) -> float:
     """Impulse ``J = (1 + e) mu w`` (N s) along the line of centres of one impact at closing speed ``w`` (m/s), 0
     if the spheres are not closing (``w <= 0``): the scalar core of :func:`oblique_impact`, which the array
     function and Billiards-v0's kernel share."""
-    return (1.0 + restitution) * (mass_a * mass_b / (mass_a + mass_b)) * closing_speed if closing_speed > 0.0 else 0.0
+    return (1.0 + restitution) * reduced_mass_one(mass_a, mass_b) * closing_speed if closing_speed > 0.0 else 0.0
 
 
 @njit(cache=True, error_model="numpy", inline="always")
@@ -75,8 +77,7 @@ def speed_after_one(speed: float, distance: float, deceleration: float) -> float
 @njit(cache=True, error_model="numpy", inline="always")
 def energy_loss_one(closing_speed: float, mass_a: float, mass_b: float, restitution: float) -> float:
     """:func:`energy_loss` of one impact (J)."""
-    mu = mass_a * mass_b / (mass_a + mass_b)
-    return 0.5 * mu * (1.0 - restitution * restitution) * closing_speed * closing_speed
+    return 0.5 * reduced_mass_one(mass_a, mass_b) * (1.0 - restitution * restitution) * closing_speed * closing_speed
 
 
 @njit(cache=True)
@@ -140,10 +141,18 @@ def _energy_loss_each(w: np.ndarray, m_a: np.ndarray, m_b: np.ndarray, e: np.nda
     return out
 
 
+@njit(cache=True)
+def _reduced_mass_each(m_a: np.ndarray, m_b: np.ndarray) -> np.ndarray:
+    out = np.empty(len(m_a))
+    for i in range(len(m_a)):
+        out[i] = reduced_mass_one(m_a[i], m_b[i])
+    return out
+
+
 def reduced_mass(mass_a: np.ndarray, mass_b: np.ndarray) -> np.ndarray:
-    """``mu = m_a m_b / (m_a + m_b)`` (kg)."""
-    mass_a, mass_b = np.asarray(mass_a, dtype=np.float64), np.asarray(mass_b, dtype=np.float64)
-    return mass_a * mass_b / (mass_a + mass_b)
+    """``mu = m_a m_b / (m_a + m_b)`` (kg), by :func:`reduced_mass_one` (any broadcastable shapes)."""
+    shape, (m_a, m_b) = flat_columns(mass_a, mass_b)
+    return _reduced_mass_each(m_a, m_b).reshape(shape)[()]
 
 
 def direct_impact(
