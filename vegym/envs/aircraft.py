@@ -379,9 +379,12 @@ class AircraftTask(Task[AircraftEnvParams]):
         }
 
     def observe(self, state: State, obs: np.ndarray) -> None:
+        self.observe_rows(state, np.arange(len(obs)), obs)
+
+    def observe_rows(self, state: State, rows: np.ndarray, obs: np.ndarray) -> None:
         _observe_kernel(
-            np.arange(len(obs)), state["step"], 0, state["position"], state["speed"], state["heading"],
-            state["command"], state["vertical_speed"], state["demand"], state["last_change"], self._constants, obs,
+            rows, state["step"], 0, state["position"], state["speed"], state["heading"], state["command"],
+            state["vertical_speed"], state["demand"], state["last_change"], self._constants, obs,
         )  # fmt: skip
 
 

@@ -271,7 +271,10 @@ class PendulumPumpTask(Task[PendulumPumpParams]):
         }
 
     def observe(self, state: State, obs: np.ndarray) -> None:
-        _observe_kernel(np.arange(len(obs)), state["theta"], state["omega"], state["target"], self._constants, obs)
+        self.observe_rows(state, np.arange(len(obs)), obs)
+
+    def observe_rows(self, state: State, rows: np.ndarray, obs: np.ndarray) -> None:
+        _observe_kernel(rows, state["theta"], state["omega"], state["target"], self._constants, obs)
 
 
 class PendulumPumpEnv(VegymEnv[PendulumPumpParams]):
