@@ -338,6 +338,19 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
             self._read_info = row_reader(self.task.info(self.state, self._out))
 
 
+MALLOC_MMAP_THRESHOLD_MAX = 32 << 20
+"""glibc's ceiling on its dynamic mmap threshold (64-bit), bytes."""
+
+
+def _recycle_step_memory(nbytes: int) -> None:
+    """Have glibc's malloc serve blocks of up to ``nbytes`` (at most 32 MiB) from its heap and keep the freed ones
+    there, rather than map fresh pages for each and fault them in one by one (a vector step's outputs and info
+    copies, allocated and dropped every step: 256 page faults per step of 8,192 Projectile envs, a third of its
+    time). glibc raises its mmap threshold to the size of a freed mapped block and its heap trim threshold to twice
+    that, so allocating and freeing one block of ``nbytes`` once is enough; other allocators just see one block."""
+    np.empty(min(nbytes, MALLOC_MMAP_THRESHOLD_MAX), np.uint8)  # freed at once
+
+
 def _core_count() -> int:
     return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
 
@@ -428,6 +441,8 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         self.state = owned(
             {**self.task.initial_state(keys), "key": keys, "step": np.zeros(self.num_envs, dtype=np.int64)}
         )
+        step_arrays = (*self.state.values(), *self.task.outputs(self.num_envs).values())
+        _recycle_step_memory(2 * sum(array.nbytes for array in step_arrays))
         self._autoreset[:] = False
         return self._observe(), {}
 
