@@ -36,10 +36,16 @@ def _mix_each(z: np.ndarray) -> np.ndarray:
     return out
 
 
+@njit(cache=True, inline="always")
+def next_key_one(key: np.uint64) -> np.uint64:
+    """:func:`next_key` of one key, for kernels (inlined: numba's cache does not see edits to it, clear it)."""
+    return _mix_one(key ^ _NEXT_EPISODE)
+
+
 @njit(cache=True)
 def _advance_each(keys: np.ndarray) -> None:
     for i in range(keys.size):
-        keys[i] = _mix_one(keys[i] ^ _NEXT_EPISODE)
+        keys[i] = next_key_one(keys[i])
 
 
 def _mix(z: np.ndarray) -> np.ndarray:

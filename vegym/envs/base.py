@@ -78,6 +78,17 @@ class Task(abc.ABC, Generic[P]):
         for name, value in self.initial_state(keys).items():
             state[name][rows] = value
 
+    def restart(self, state: State, rows: np.ndarray, obs: np.ndarray) -> None:
+        """Start the next episode of every episode of ``state``, in place: each ``key`` advanced to
+        :func:`rng.next_key` of itself, the episode started (``rows`` is ``arange(n)``, the rows argument of
+        :meth:`start`) and observed into ``obs`` (``step`` is the front end's, zero already). A single env's reset
+        without a seed and a vector step that resets every sub-env run it; tasks with one-step episodes override it
+        with one kernel."""
+        keys = state["key"]
+        rng.advance(keys)
+        self.start(state, keys, rows)
+        self.observe(state, obs)
+
     @abc.abstractmethod
     def output_shapes(self) -> dict[str, tuple[tuple[int, ...], type]]:
         """Per-episode shape and dtype of every array ``step`` writes besides ``reward`` and ``terminated``."""
@@ -262,24 +273,25 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, Info]:
         super().reset(seed=seed)
-        if self.state is None:
-            key = self.np_random.integers(0, 2**64, size=1, dtype=np.uint64) if seed is None else rng.seed_keys([seed])
-            self.state = owned({**self.task.initial_state(key), "key": key, "step": np.zeros(1, dtype=np.int64)})
-            self._read_info = row_reader(self.task.info(self.state, self._out))
-        else:
-            key = self.state["key"]
-            if seed is None:
-                rng.advance(key)
-            else:
-                key[:] = rng.seed_keys(np.array([seed]))
-            self.task.start(self.state, key, _ROW_0)
+        obs = self._out["obs"]
+        if self.state is not None and seed is None:
             self.state["step"][0] = 0
+            self.task.restart(self.state, _ROW_0, obs)
+        else:
+            if self.state is None:
+                key = rng.seed_keys([seed]) if seed is not None else self.np_random.integers(0, 2**64, 1, np.uint64)
+                self.state = owned({**self.task.initial_state(key), "key": key, "step": np.zeros(1, dtype=np.int64)})
+                self._read_info = row_reader(self.task.info(self.state, self._out))
+            else:
+                key = self.state["key"]
+                key[:] = rng.seed_keys(np.array([seed]))
+                self.task.start(self.state, key, _ROW_0)
+                self.state["step"][0] = 0
+            self.task.observe(self.state, obs)
         if self.render_mode is not None:
             self._get_renderer().reset(self._snapshot())
             if self.render_mode == "human":
                 self.render()
-        obs = self._out["obs"]
-        self.task.observe(self.state, obs)
         return obs[0].copy(), {}
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, Info]:
@@ -421,6 +433,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         self.state: State | None = None
         self._action = np.empty((num_envs, *self.single_action_space.shape))
         self._autoreset = np.zeros(num_envs, dtype=bool)
+        self._every = np.arange(num_envs)
 
     def reset(
         self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None
@@ -468,8 +481,8 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         """Start the episodes of ``keys`` in the sub-envs ``rows`` (int indices), in place."""
         state = self.state
         assert state is not None
-        if len(rows) == self.num_envs:  # every sub-env (one-step episodes): in chunks, on views
-            every = np.arange(self.num_envs)
+        if len(rows) == self.num_envs:  # every sub-env: in chunks, on views
+            every = self._every
             _in_chunks(self.num_envs, lambda r: self.task.start(rows_of(state, r), keys[r], every[: r.stop - r.start]))
         else:
             self.task.start(state, keys, rows)
@@ -501,7 +514,8 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         a = check_actions(actions, self._action)
         out = self.task.outputs(self.num_envs)
         resetting = self._autoreset
-        if resetting.all():
+        every_resets = resetting.all()
+        if every_resets:
             for value in out.values():
                 value.fill(0)
         else:
@@ -509,7 +523,13 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         state["step"] += 1
         reward, terminated = out["reward"], out["terminated"]
         info = self._vector_info(self.task.info(state, out), ~resetting, {id(v) for v in state.values()})
-        if resetting.any():
+        if every_resets:  # the outputs are zeros already
+            every = self._every
+            state["step"][:] = 0
+            _in_chunks(
+                self.num_envs, lambda r: self.task.restart(rows_of(state, r), every[: r.stop - r.start], out["obs"][r])
+            )
+        elif resetting.any():
             rows = np.flatnonzero(resetting)
             self._start(rows, rng.next_key(state["key"][rows]))
             reward[rows], terminated[rows] = 0.0, False

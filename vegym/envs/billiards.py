@@ -121,8 +121,8 @@ STEP_CONSTANTS = (
 """Parameters the kernels read, in the order of their constants array (SI units, radians; see the fields)."""
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def _start_kernel(
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _start(
     keys: np.ndarray,
     rows: np.ndarray,
     c: np.ndarray,
@@ -158,6 +158,39 @@ def _start_kernel(
         ball_a[i, 0], ball_a[i, 1] = 0.0, 0.0
         ball_b[i, 0], ball_b[i, 1] = b_x[j], b_z[j]
         target[i, 0], target[i, 1] = target_x[j], target_z[j]
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _start_kernel(
+    keys: np.ndarray,
+    rows: np.ndarray,
+    c: np.ndarray,
+    offset: np.uint64,
+    ball_a: np.ndarray,
+    ball_b: np.ndarray,
+    target: np.ndarray,
+) -> None:
+    """Fresh episodes of ``keys`` in the rows ``rows`` of the state arrays (:func:`_start`)."""
+    _start(keys, rows, c, offset, ball_a, ball_b, target)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _restart_kernel(
+    keys: np.ndarray,
+    rows: np.ndarray,
+    c: np.ndarray,
+    offset: np.uint64,
+    ball_a: np.ndarray,
+    ball_b: np.ndarray,
+    target: np.ndarray,
+    obs: np.ndarray,
+) -> None:
+    """Every episode's next one (:meth:`~vegym.envs.base.Task.restart`): ``keys`` advanced in place, the episodes
+    started (:func:`_start`, ``rows`` is ``arange(n)``) and observed into ``obs`` (:func:`_observe`)."""
+    for j in range(len(keys)):
+        keys[j] = rng.next_key_one(keys[j])
+    _start(keys, rows, c, offset, ball_a, ball_b, target)
+    _observe(ball_a, ball_b, target, c, obs)
 
 
 SHOT_COLUMNS = (
@@ -323,6 +356,11 @@ class BilliardsTask(Task[BilliardsParams]):
 
     def start(self, state: State, keys: np.ndarray, rows: np.ndarray) -> None:
         _start_kernel(keys, rows, self._constants, self._offset, state["ball_a"], state["ball_b"], state["target"])
+
+    def restart(self, state: State, rows: np.ndarray, obs: np.ndarray) -> None:
+        _restart_kernel(
+            state["key"], rows, self._constants, self._offset, state["ball_a"], state["ball_b"], state["target"], obs
+        )
 
     @staticmethod
     def line_frame(state: State) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -117,8 +117,8 @@ SHOT_COLUMNS = ("velocity_x", "velocity_y", "velocity_z", "flight_time", "miss_d
 miss (m) and the reward terms ``miss`` and ``hit``."""
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def _start_kernel(
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _start(
     keys: np.ndarray,
     rows: np.ndarray,
     c: np.ndarray,
@@ -157,6 +157,43 @@ def _start_kernel(
         bearing[i] = direction[j]
         wind[i, 0], wind[i, 1], wind[i, 2] = wind_x[j], 0.0, wind_z[j]
         landing[i, 0], landing[i, 1], landing[i, 2] = np.nan, np.nan, np.nan
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _start_kernel(
+    keys: np.ndarray,
+    rows: np.ndarray,
+    c: np.ndarray,
+    offset: np.uint64,
+    launch: np.ndarray,
+    target: np.ndarray,
+    wind: np.ndarray,
+    bearing: np.ndarray,
+    landing: np.ndarray,
+) -> None:
+    """Fresh episodes of ``keys`` in the rows ``rows`` of the state arrays (:func:`_start`)."""
+    _start(keys, rows, c, offset, launch, target, wind, bearing, landing)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _restart_kernel(
+    keys: np.ndarray,
+    rows: np.ndarray,
+    c: np.ndarray,
+    offset: np.uint64,
+    launch: np.ndarray,
+    target: np.ndarray,
+    wind: np.ndarray,
+    bearing: np.ndarray,
+    landing: np.ndarray,
+    obs: np.ndarray,
+) -> None:
+    """Every episode's next one (:meth:`~vegym.envs.base.Task.restart`): ``keys`` advanced in place, the episodes
+    started (:func:`_start`, ``rows`` is ``arange(n)``) and observed into ``obs`` (:func:`_observe`)."""
+    for j in range(len(keys)):
+        keys[j] = rng.next_key_one(keys[j])
+    _start(keys, rows, c, offset, launch, target, wind, bearing, landing)
+    _observe(launch, target, wind, bearing, c, obs)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -288,6 +325,12 @@ class ProjectileTask(Task[ProjectileEnvParams]):
         _start_kernel(
             keys, rows, self._constants, self._offset, state["launch_position"], state["target"], state["wind"],
             state["bearing"], state["landing_point"],
+        )  # fmt: skip
+
+    def restart(self, state: State, rows: np.ndarray, obs: np.ndarray) -> None:
+        _restart_kernel(
+            state["key"], rows, self._constants, self._offset, state["launch_position"], state["target"],
+            state["wind"], state["bearing"], state["landing_point"], obs,
         )  # fmt: skip
 
     @staticmethod

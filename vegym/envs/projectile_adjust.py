@@ -9,8 +9,9 @@ import numpy as np
 from gymnasium import spaces
 from numba import njit
 
+from vegym import rng
 from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
-from vegym.envs.projectile import AZIMUTH_LIMIT, ELEVATION_LIMIT, ProjectileEnvParams, ProjectileTask, _shoot
+from vegym.envs.projectile import AZIMUTH_LIMIT, ELEVATION_LIMIT, ProjectileEnvParams, ProjectileTask, _shoot, _start
 from vegym.envs.projectile import SHOT_COLUMNS as PROJECTILE_SHOT_COLUMNS
 from vegym.params import invalid, param
 from vegym.physics import projectile, vmath
@@ -110,8 +111,8 @@ def _step_kernel(
     _observe(launch, target, misses, actions, shots, c, obs)
 
 
-@njit(cache=True, nogil=True)
-def _clear_kernel(rows: np.ndarray, misses: np.ndarray, actions: np.ndarray, shots: np.ndarray) -> None:
+@njit(cache=True, nogil=True, inline="always")
+def _clear(rows: np.ndarray, misses: np.ndarray, actions: np.ndarray, shots: np.ndarray) -> None:
     """Empty the shot memory of the rows ``rows``, in place."""
     for k in range(misses.shape[1]):
         for j in range(len(rows)):
@@ -120,6 +121,39 @@ def _clear_kernel(rows: np.ndarray, misses: np.ndarray, actions: np.ndarray, sho
             actions[i, k, 0], actions[i, k, 1], actions[i, k, 2] = 0.0, 0.0, 0.0
     for j in range(len(rows)):
         shots[rows[j]] = 0
+
+
+@njit(cache=True, nogil=True)
+def _clear_kernel(rows: np.ndarray, misses: np.ndarray, actions: np.ndarray, shots: np.ndarray) -> None:
+    """Empty the shot memory of the rows ``rows``, in place (:func:`_clear`)."""
+    _clear(rows, misses, actions, shots)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _restart_kernel(
+    keys: np.ndarray,
+    rows: np.ndarray,
+    shot_c: np.ndarray,
+    offset: np.uint64,
+    launch: np.ndarray,
+    target: np.ndarray,
+    wind: np.ndarray,
+    bearing: np.ndarray,
+    landing: np.ndarray,
+    misses: np.ndarray,
+    actions: np.ndarray,
+    shots: np.ndarray,
+    c: np.ndarray,
+    obs: np.ndarray,
+) -> None:
+    """Every episode's next one (:meth:`~vegym.envs.base.Task.restart`): ``keys`` advanced in place, the episodes
+    started (Projectile-v0's :func:`~vegym.envs.projectile._start` with its constants ``shot_c``, ``rows`` is
+    ``arange(n)``), their memory emptied and observed into ``obs`` (:func:`_observe`, ``c`` its constants)."""
+    for j in range(len(keys)):
+        keys[j] = rng.next_key_one(keys[j])
+    _start(keys, rows, shot_c, offset, launch, target, wind, bearing, landing)
+    _clear(rows, misses, actions, shots)
+    _observe(launch, target, misses, actions, shots, c, obs)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -203,6 +237,13 @@ class ProjectileAdjustTask(Task[ProjectileAdjustParams]):
     def start(self, state: State, keys: np.ndarray, rows: np.ndarray) -> None:
         self.shot.start(state, keys, rows)
         _clear_kernel(rows, state["misses"], state["actions"], state["shots"])
+
+    def restart(self, state: State, rows: np.ndarray, obs: np.ndarray) -> None:
+        _restart_kernel(
+            state["key"], rows, self._shot_constants, self.shot._offset, state["launch_position"], state["target"],
+            state["wind"], state["bearing"], state["landing_point"], state["misses"], state["actions"], state["shots"],
+            self._constants, obs,
+        )  # fmt: skip
 
     def output_shapes(self) -> dict[str, tuple[tuple[int, ...], type]]:
         return {"shot": ((len(SHOT_COLUMNS),), np.float64), "success": ((), np.bool_)}
