@@ -212,22 +212,27 @@ def test_observing_some_rows_writes_those_rows_of_the_full_observation_only(env_
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)
-def test_restart_starts_every_episode_with_its_next_key_as_start_and_observe_do(env_id: str) -> None:
-    """Tasks override ``restart`` with one kernel; it must equal the base class's (advance, start, observe)."""
+@pytest.mark.parametrize("rows", [np.arange(12), np.array([0, 3, 4, 11])], ids=["all rows", "some rows"])
+def test_restart_starts_the_next_episodes_of_its_rows_as_start_and_observe_do(env_id: str, rows: np.ndarray) -> None:
+    """Tasks override ``restart`` with one kernel; it must equal the base class's (advance, start, observe), and
+    leave the other rows alone."""
     vec = gym.make_vec(env_id, num_envs=12, vectorization_mode="vector_entry_point")
     vec.reset(seed=6)
     for _ in range(3):
         vec.step(vec.action_space.sample())
-    task, rows = vec.unwrapped.task, np.arange(12)
-    fused, default = copy.deepcopy(vec.unwrapped.state), copy.deepcopy(vec.unwrapped.state)
+    task, before = vec.unwrapped.task, vec.unwrapped.state
+    fused, default = copy.deepcopy(before), copy.deepcopy(before)
     fused_obs, default_obs = (np.full((12, *task.observation_space.shape), -7.0, np.float32) for _ in range(2))
     task.restart(fused, rows, fused_obs)
     base.Task.restart(task, default, rows, default_obs)
-    assert not (fused["key"] == vec.unwrapped.state["key"]).any()
+    others = np.setdiff1d(np.arange(12), rows)
+    assert (fused["key"][rows] != before["key"][rows]).all()
     assert fused.keys() == default.keys()
     for name in fused:  # NaN-aware (a shot not yet fired)
         np.testing.assert_array_equal(fused[name], default[name], err_msg=name)
+        np.testing.assert_array_equal(fused[name][others], before[name][others], err_msg=name)
     np.testing.assert_array_equal(fused_obs, default_obs)
+    assert (fused_obs[others] == -7.0).all()
 
 
 def test_a_forked_child_steps_a_threaded_vector_env(monkeypatch: pytest.MonkeyPatch) -> None:

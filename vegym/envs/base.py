@@ -79,15 +79,14 @@ class Task(abc.ABC, Generic[P]):
             state[name][rows] = value
 
     def restart(self, state: State, rows: np.ndarray, obs: np.ndarray) -> None:
-        """Start the next episode of every episode of ``state``, in place: each ``key`` advanced to
-        :func:`rng.next_key` of itself, the episode started (``rows`` is ``arange(n)``, the rows argument of
-        :meth:`start`) and observed into ``obs`` (``step`` is the front end's, zero already). A single env's reset
-        without a seed and a vector step that resets every sub-env run it; tasks with one-step episodes override it
-        with one kernel."""
-        keys = state["key"]
-        rng.advance(keys)
+        """Start the next episode of the episodes ``rows`` (distinct int indices) of ``state``, in place: their
+        ``key`` advanced to :func:`rng.next_key` of itself, the episodes started and observed into those rows of
+        ``obs`` (their ``step`` is the front end's, zero already). A single env's reset without a seed and the
+        vector env's autoreset run it; tasks override it with one kernel."""
+        keys = rng.next_key(state["key"][rows])
         self.start(state, keys, rows)
-        self.observe(state, obs)
+        state["key"][rows] = keys
+        self.observe_rows(state, rows, obs)
 
     @abc.abstractmethod
     def output_shapes(self) -> dict[str, tuple[tuple[int, ...], type]]:
@@ -152,15 +151,19 @@ class Task(abc.ABC, Generic[P]):
 def _load_actions(source: np.ndarray, target: np.ndarray, tolerance: float) -> int:
     """Copy ``source`` (C-contiguous, ``target.size`` elements) into the float64 array ``target`` (C order),
     clipping values within ``tolerance`` outside [-1, 1]. Returns 0, or 1 for NaN/inf, 2 for values further out.
-    Branch-free, so that it runs as SIMD code."""
+    The copy is branch-free, so that it runs as SIMD code; only a bad action is looked at again."""
     values, flat = source.reshape(-1), target.reshape(-1)
-    not_finite, too_far = False, False
+    limit, bad = 1.0 + tolerance, False
     for j in range(values.size):
         x = np.float64(values[j])
-        not_finite |= not np.isfinite(x)
-        too_far |= abs(x) > 1.0 + tolerance
+        bad |= not abs(x) <= limit  # also NaN
         flat[j] = min(max(x, -1.0), 1.0)
-    return 1 if not_finite else (2 if too_far else 0)
+    if not bad:
+        return 0
+    for j in range(values.size):
+        if not np.isfinite(np.float64(values[j])):
+            return 1
+    return 2
 
 
 def check_actions(action: Any, target: np.ndarray) -> np.ndarray:
@@ -488,16 +491,12 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             self.task.start(state, keys, rows)
         state["key"][rows], state["step"][rows] = keys, 0
 
-    def _observe(self, obs: np.ndarray | None = None, rows: np.ndarray | None = None) -> np.ndarray:
-        """Observations of every sub-env, or only of ``rows`` (int indices) written into ``obs``."""
+    def _observe(self) -> np.ndarray:
+        """Observations of every sub-env, in a new array."""
         state = self.state
         assert state is not None
-        if obs is None:
-            obs = np.empty((self.num_envs, *self.single_observation_space.shape), np.float32)
-        if rows is None or len(rows) == self.num_envs:
-            _in_chunks(self.num_envs, lambda r: self.task.observe(rows_of(state, r), obs[r]))
-        else:
-            self.task.observe_rows(state, rows, obs)
+        obs = np.empty((self.num_envs, *self.single_observation_space.shape), np.float32)
+        _in_chunks(self.num_envs, lambda r: self.task.observe(rows_of(state, r), obs[r]))
         return obs
 
     def step(self, actions: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, Info]:
@@ -531,9 +530,9 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             )
         elif resetting.any():
             rows = np.flatnonzero(resetting)
-            self._start(rows, rng.next_key(state["key"][rows]))
+            state["step"][rows] = 0
+            self.task.restart(state, rows, out["obs"])
             reward[rows], terminated[rows] = 0.0, False
-            self._observe(out["obs"], rows)
         truncated = np.zeros(self.num_envs, dtype=bool)
         if self.max_episode_steps is not None:
             truncated = (state["step"] >= self.max_episode_steps) & ~resetting

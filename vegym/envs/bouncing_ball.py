@@ -220,6 +220,24 @@ def _charge_rest(
     reward[i] = terms[i, 0] - rest_cost
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _start_row(
+    r: int,
+    key: np.uint64,
+    speed: np.ndarray,
+    time: np.ndarray,
+    targets: np.ndarray,
+    error_sum: np.ndarray,
+    c: np.ndarray,
+    offsets: np.ndarray,
+) -> None:
+    """The fresh episode of ``key`` written in place into row ``r`` of the state arrays (``speed`` to
+    ``error_sum``), as ``BouncingBallTask.initial_state`` draws it; ``c`` holds the parameters named in
+    ``STEP_CONSTANTS``, then the time of the first impact."""
+    speed[r], time[r], error_sum[r] = c[10], c[11], 0.0
+    _fill_targets(key, targets[r], c, offsets)
+
+
 @njit(cache=True, nogil=True)
 def _start_kernel(
     keys: np.ndarray,
@@ -231,13 +249,30 @@ def _start_kernel(
     c: np.ndarray,
     offsets: np.ndarray,
 ) -> None:
-    """Fresh episodes of ``keys`` written in place into the rows ``rows`` of the state arrays (``speed`` to
-    ``error_sum``), as ``BouncingBallTask.initial_state`` draws them; ``c`` holds the parameters named in
-    ``STEP_CONSTANTS``, then the time of the first impact."""
+    """Fresh episodes of ``keys`` in the rows ``rows`` of the state arrays (:func:`_start_row`)."""
+    for j in range(len(rows)):
+        _start_row(rows[j], keys[j], speed, time, targets, error_sum, c, offsets)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _restart_kernel(
+    keys: np.ndarray,
+    rows: np.ndarray,
+    speed: np.ndarray,
+    time: np.ndarray,
+    targets: np.ndarray,
+    error_sum: np.ndarray,
+    c: np.ndarray,
+    offsets: np.ndarray,
+    obs: np.ndarray,
+) -> None:
+    """The next episode of the episodes ``rows`` (:meth:`~vegym.envs.base.Task.restart`): their ``keys`` advanced
+    in place, the episodes started (:func:`_start_row`) and observed into those rows of ``obs``."""
     for j in range(len(rows)):
         r = rows[j]
-        speed[r], time[r], error_sum[r] = c[10], c[11], 0.0
-        _fill_targets(keys[j], targets[r], c, offsets)
+        keys[r] = rng.next_key_one(keys[r])
+        _start_row(r, keys[r], speed, time, targets, error_sum, c, offsets)
+        _observe_row(r, speed, targets, c, obs)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -306,6 +341,12 @@ class BouncingBallTask(Task[BouncingBallParams]):
         _start_kernel(
             keys, rows, state["speed"], state["time"], state["targets"], state["error_sum"], self._constants,
             self._offsets,
+        )  # fmt: skip
+
+    def restart(self, state: State, rows: np.ndarray, obs: np.ndarray) -> None:
+        _restart_kernel(
+            state["key"], rows, state["speed"], state["time"], state["targets"], state["error_sum"], self._constants,
+            self._offsets, obs,
         )  # fmt: skip
 
     def output_shapes(self) -> dict[str, tuple[tuple[int, ...], type]]:

@@ -188,8 +188,8 @@ def _restart_kernel(
     landing: np.ndarray,
     obs: np.ndarray,
 ) -> None:
-    """Every episode's next one (:meth:`~vegym.envs.base.Task.restart`): ``keys`` advanced in place, the episodes
-    started (:func:`_start`, ``rows`` is ``arange(n)``) and observed into ``obs`` (:func:`_observe`)."""
+    """Every episode's next one (:meth:`~vegym.envs.base.Task.restart` of all rows): ``keys`` advanced in place,
+    the episodes started (:func:`_start`, ``rows`` is ``arange(n)``) and observed into ``obs`` (:func:`_observe`)."""
     for j in range(len(keys)):
         keys[j] = rng.next_key_one(keys[j])
     _start(keys, rows, c, offset, launch, target, wind, bearing, landing)
@@ -328,6 +328,9 @@ class ProjectileTask(Task[ProjectileEnvParams]):
         )  # fmt: skip
 
     def restart(self, state: State, rows: np.ndarray, obs: np.ndarray) -> None:
+        if len(rows) < len(obs):  # some rows (a masked reset)
+            super().restart(state, rows, obs)
+            return
         _restart_kernel(
             state["key"], rows, self._constants, self._offset, state["launch_position"], state["target"],
             state["wind"], state["bearing"], state["landing_point"], obs,

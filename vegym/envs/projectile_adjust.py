@@ -146,9 +146,10 @@ def _restart_kernel(
     c: np.ndarray,
     obs: np.ndarray,
 ) -> None:
-    """Every episode's next one (:meth:`~vegym.envs.base.Task.restart`): ``keys`` advanced in place, the episodes
-    started (Projectile-v0's :func:`~vegym.envs.projectile._start` with its constants ``shot_c``, ``rows`` is
-    ``arange(n)``), their memory emptied and observed into ``obs`` (:func:`_observe`, ``c`` its constants)."""
+    """Every episode's next one (:meth:`~vegym.envs.base.Task.restart` of all rows): ``keys`` advanced in place,
+    the episodes started (Projectile-v0's :func:`~vegym.envs.projectile._start` with its constants ``shot_c``,
+    ``rows`` is ``arange(n)``), their memory emptied and observed into ``obs`` (:func:`_observe`, ``c`` its
+    constants)."""
     for j in range(len(keys)):
         keys[j] = rng.next_key_one(keys[j])
     _start(keys, rows, shot_c, offset, launch, target, wind, bearing, landing)
@@ -239,6 +240,9 @@ class ProjectileAdjustTask(Task[ProjectileAdjustParams]):
         _clear_kernel(rows, state["misses"], state["actions"], state["shots"])
 
     def restart(self, state: State, rows: np.ndarray, obs: np.ndarray) -> None:
+        if len(rows) < len(obs):  # some rows (a masked reset)
+            super().restart(state, rows, obs)
+            return
         _restart_kernel(
             state["key"], rows, self._shot_constants, self.shot._offset, state["launch_position"], state["target"],
             state["wind"], state["bearing"], state["landing_point"], state["misses"], state["actions"], state["shots"],
