@@ -146,15 +146,20 @@ def _restart_kernel(
     c: np.ndarray,
     obs: np.ndarray,
 ) -> None:
-    """Every episode's next one (:meth:`~vegym.envs.base.Task.restart` of all rows): ``keys`` advanced in place,
-    the episodes started (Projectile-v0's :func:`~vegym.envs.projectile._start` with its constants ``shot_c``,
-    ``rows`` is ``arange(n)``), their memory emptied and observed into ``obs`` (:func:`_observe`, ``c`` its
-    constants)."""
-    for j in range(len(keys)):
-        keys[j] = rng.next_key_one(keys[j])
-    _start(keys, rows, shot_c, offset, launch, target, wind, bearing, landing)
+    """The next episode of the episodes ``rows`` (:meth:`~vegym.envs.base.Task.restart`): their ``keys`` advanced
+    in place, the episodes started (Projectile-v0's :func:`~vegym.envs.projectile._start` with its constants
+    ``shot_c``), their memory emptied and observed (:func:`_observe` over copies of their rows, ``c`` its
+    constants) into those rows of ``obs``."""
+    m = len(rows)
+    next_keys = np.empty(m, np.uint64)
+    for j in range(m):
+        next_keys[j] = keys[rows[j]] = rng.next_key_one(keys[rows[j]])
+    _start(next_keys, rows, shot_c, offset, launch, target, wind, bearing, landing)
     _clear(rows, misses, actions, shots)
-    _observe(launch, target, misses, actions, shots, c, obs)
+    observed = np.empty((m, obs.shape[1]), np.float32)
+    _observe(launch[rows], target[rows], misses[rows], actions[rows], shots[rows], c, observed)
+    for j in range(m):
+        obs[rows[j]] = observed[j]
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -240,9 +245,6 @@ class ProjectileAdjustTask(Task[ProjectileAdjustParams]):
         _clear_kernel(rows, state["misses"], state["actions"], state["shots"])
 
     def restart(self, state: State, rows: np.ndarray, obs: np.ndarray) -> None:
-        if len(rows) < len(obs):  # some rows (a masked reset)
-            super().restart(state, rows, obs)
-            return
         _restart_kernel(
             state["key"], rows, self._shot_constants, self.shot._offset, state["launch_position"], state["target"],
             state["wind"], state["bearing"], state["landing_point"], state["misses"], state["actions"], state["shots"],

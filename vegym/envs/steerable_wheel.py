@@ -197,8 +197,8 @@ def _gather_waypoints(waypoints: np.ndarray, index: np.ndarray, ahead: int, x: n
         x[i], z[i] = waypoints[i, w, 0], waypoints[i, w, 1]
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def _observe_kernel(
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _observe(
     position: np.ndarray,
     heading: np.ndarray,
     speed: np.ndarray,
@@ -232,8 +232,22 @@ def _observe_kernel(
         out[width * i + width - 1] = index[i] / n_waypoints
 
 
-@njit(cache=True, nogil=True)
-def _start_kernel(
+@njit(cache=True, nogil=True, error_model="numpy")
+def _observe_kernel(
+    position: np.ndarray,
+    heading: np.ndarray,
+    speed: np.ndarray,
+    waypoints: np.ndarray,
+    index: np.ndarray,
+    c: np.ndarray,
+    obs: np.ndarray,
+) -> None:
+    """Observations (n, 8) written into ``obs`` (:func:`_observe`)."""
+    _observe(position, heading, speed, waypoints, index, c, obs)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _start(
     keys: np.ndarray,
     rows: np.ndarray,
     setup_offset: np.uint64,
@@ -261,6 +275,52 @@ def _start_kernel(
         roll[r], speed[r], index[r] = 0.0, 0.0, 0
 
 
+@njit(cache=True, nogil=True)
+def _start_kernel(
+    keys: np.ndarray,
+    rows: np.ndarray,
+    setup_offset: np.uint64,
+    extent: float,
+    position: np.ndarray,
+    heading: np.ndarray,
+    roll: np.ndarray,
+    speed: np.ndarray,
+    waypoints: np.ndarray,
+    index: np.ndarray,
+) -> None:
+    """Fresh episodes of ``keys`` in the rows ``rows`` of the state arrays (:func:`_start`)."""
+    _start(keys, rows, setup_offset, extent, position, heading, roll, speed, waypoints, index)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _restart_kernel(
+    keys: np.ndarray,
+    rows: np.ndarray,
+    setup_offset: np.uint64,
+    extent: float,
+    position: np.ndarray,
+    heading: np.ndarray,
+    roll: np.ndarray,
+    speed: np.ndarray,
+    waypoints: np.ndarray,
+    index: np.ndarray,
+    c: np.ndarray,
+    obs: np.ndarray,
+) -> None:
+    """The next episode of the episodes ``rows`` (:meth:`~vegym.envs.base.Task.restart`): their ``keys`` advanced
+    in place, the episodes started (:func:`_start`) and observed (:func:`_observe` over copies of their rows) into
+    those rows of ``obs``."""
+    m = len(rows)
+    next_keys = np.empty(m, np.uint64)
+    for j in range(m):
+        next_keys[j] = keys[rows[j]] = rng.next_key_one(keys[rows[j]])
+    _start(next_keys, rows, setup_offset, extent, position, heading, roll, speed, waypoints, index)
+    observed = np.empty((m, obs.shape[1]), np.float32)
+    _observe(position[rows], heading[rows], speed[rows], waypoints[rows], index[rows], c, observed)
+    for j in range(m):
+        obs[rows[j]] = observed[j]
+
+
 class SteerableWheelTask(Task[SteerableWheelParams]):
     """Batched logic of SteerableWheel-v0 (see :class:`SteerableWheelEnv`)."""
 
@@ -274,6 +334,7 @@ class SteerableWheelTask(Task[SteerableWheelParams]):
         self.observation_space = spaces.Box(low, np.ones_like(low), dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
         self._constants = np.array([getattr(params, name) for name in STEP_CONSTANTS])
+        self._setup_offset = rng.stream_offset(_SETUP_STREAM)
 
     @property
     def control_rate(self) -> float:
@@ -296,8 +357,15 @@ class SteerableWheelTask(Task[SteerableWheelParams]):
 
     def start(self, state: State, keys: np.ndarray, rows: np.ndarray) -> None:
         _start_kernel(
-            keys, rows, rng.stream_offset(_SETUP_STREAM), self.params.half_size - self.params.waypoint_margin,
+            keys, rows, self._setup_offset, self.params.half_size - self.params.waypoint_margin, state["position"],
+            state["heading"], state["roll"], state["speed"], state["waypoints"], state["index"],
+        )  # fmt: skip
+
+    def restart(self, state: State, rows: np.ndarray, obs: np.ndarray) -> None:
+        _restart_kernel(
+            state["key"], rows, self._setup_offset, self.params.half_size - self.params.waypoint_margin,
             state["position"], state["heading"], state["roll"], state["speed"], state["waypoints"], state["index"],
+            self._constants, obs,
         )  # fmt: skip
 
     def output_shapes(self) -> dict[str, tuple[tuple[int, ...], type]]:
