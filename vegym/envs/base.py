@@ -166,6 +166,45 @@ def _load_actions(source: np.ndarray, target: np.ndarray, tolerance: float) -> i
     return 2
 
 
+@njit(cache=True, nogil=True)
+def _count_steps(step: np.ndarray, resetting: np.ndarray, active: np.ndarray) -> np.ndarray:
+    """After a vector step: count it in ``step``, set it to 0 for the ``resetting`` sub-envs (which start an
+    episode now) and ``active`` to the others; returns the resetting rows (int indices)."""
+    count = 0
+    for i in range(len(step)):
+        r = resetting[i]
+        step[i] = 0 if r else step[i] + 1
+        active[i] = not r
+        count += r
+    rows = np.empty(count, np.intp)
+    j = 0
+    for i in range(len(step)):
+        if resetting[i]:
+            rows[j] = i
+            j += 1
+    return rows
+
+
+@njit(cache=True, nogil=True)
+def _end_flags(
+    rows: np.ndarray,
+    step: np.ndarray,
+    max_steps: int,
+    active: np.ndarray,
+    reward: np.ndarray,
+    terminated: np.ndarray,
+    truncated: np.ndarray,
+    autoreset: np.ndarray,
+) -> None:
+    """After a vector step: reward 0 and not terminated in the restarted ``rows``; ``truncated`` where an
+    ``active`` sub-env reached ``max_steps`` steps; ``autoreset`` where it terminated or truncated."""
+    for j in range(len(rows)):
+        reward[rows[j]], terminated[rows[j]] = 0.0, False
+    for i in range(len(step)):
+        truncated[i] = active[i] & (step[i] >= max_steps)
+        autoreset[i] = terminated[i] | truncated[i]
+
+
 def check_actions(action: Any, target: np.ndarray) -> np.ndarray:
     """Load ``action`` into ``target`` (float64, ``(n, action_dim)``) and return it. ValueError on another shape
     (also taken: a single env's ``(action_dim,)``, ``(n,)`` for one-dimensional actions, a scalar for one
@@ -408,7 +447,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
     NEXT_STEP autoreset: the step after a sub-env terminates or truncates resets it, returning its first
     observation with reward 0 and ``terminated = truncated = False``. Truncation comes from
     ``max_episode_steps`` (``make_vec`` passes the registered value). The state is updated in place; every
-    returned array is fresh and never written again.
+    returned array is fresh and never written again (an info constant's is read-only, the same at every step).
     """
 
     task_cls: ClassVar[type[Task]]
@@ -437,6 +476,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         self._action = np.empty((num_envs, *self.single_action_space.shape))
         self._autoreset = np.zeros(num_envs, dtype=bool)
         self._every = np.arange(num_envs)
+        self._constants: dict[tuple[type, Any], np.ndarray] = {}
 
     def reset(
         self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None
@@ -519,24 +559,20 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
                 value.fill(0)
         else:
             _in_chunks(self.num_envs, lambda rows: self.task.step(rows_of(state, rows), a[rows], rows_of(out, rows)))
-        state["step"] += 1
-        reward, terminated = out["reward"], out["terminated"]
-        info = self._vector_info(self.task.info(state, out), ~resetting, {id(v) for v in state.values()})
+        active = np.empty(self.num_envs, np.bool_)
+        rows = _count_steps(state["step"], resetting, active)
+        info = self._vector_info(self.task.info(state, out), active, {id(v) for v in state.values()})
         if every_resets:  # the outputs are zeros already
             every = self._every
-            state["step"][:] = 0
             _in_chunks(
                 self.num_envs, lambda r: self.task.restart(rows_of(state, r), every[: r.stop - r.start], out["obs"][r])
             )
-        elif resetting.any():
-            rows = np.flatnonzero(resetting)
-            state["step"][rows] = 0
+        elif len(rows):
             self.task.restart(state, rows, out["obs"])
-            reward[rows], terminated[rows] = 0.0, False
-        truncated = np.zeros(self.num_envs, dtype=bool)
-        if self.max_episode_steps is not None:
-            truncated = (state["step"] >= self.max_episode_steps) & ~resetting
-        self._autoreset = terminated | truncated
+        reward, terminated = out["reward"], out["terminated"]
+        truncated, self._autoreset = np.empty(self.num_envs, np.bool_), np.empty(self.num_envs, np.bool_)
+        max_steps = self.max_episode_steps if self.max_episode_steps is not None else np.iinfo(np.int64).max
+        _end_flags(rows, state["step"], max_steps, active, reward, terminated, truncated, self._autoreset)
         return out["obs"], reward, terminated, truncated, info
 
     def _vector_info(self, info: Mapping[str, Any], mask: np.ndarray, state_ids: set[int]) -> Info:
@@ -547,9 +583,17 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             if isinstance(value, Mapping):
                 out[name] = self._vector_info(value, mask, state_ids)
             elif not isinstance(value, np.ndarray):
-                out[name] = np.full(self.num_envs, value)
+                out[name] = self._constant(value)
             else:
                 shares_state = id(value) in state_ids or id(value.base) in state_ids
                 out[name] = value.copy() if shares_state else value
             out[f"_{name}"] = mask
         return out
+
+    def _constant(self, value: bool | int | float) -> np.ndarray:
+        """A read-only array of the info constant ``value`` for every sub-env, made once per value and type."""
+        array = self._constants.get((type(value), value))
+        if array is None:
+            array = self._constants[(type(value), value)] = np.full(self.num_envs, value)
+            array.flags.writeable = False
+        return array
