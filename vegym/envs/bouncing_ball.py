@@ -84,15 +84,21 @@ REWARD_TERMS = ("apex_error", "rest")
 """Names of ``info["reward_terms"]``, in the order of the step kernel's ``terms`` columns."""
 
 
-@njit(cache=True)
-def _target(key: np.uint64, index: int, previous: float, c: np.ndarray, offsets: np.ndarray) -> float:
-    """Target apex number ``index`` (m) of the episode ``key``, from target ``index - 1`` (``previous``, unused for
-    the first). Targets follow a random walk, ``t_k = clip(t_{k-1} U(target_ratio_min, target_ratio_max),
-    target_min, target_max)`` from ``t_0 = U(target_min, target_max)``, drawn from the episode key alone (never
-    from the actions); ``offsets`` are the rng stream offsets of the first target and of the ratios."""
+@njit(cache=True, inline="always")
+def _first_target(key: np.uint64, c: np.ndarray, offsets: np.ndarray) -> float:
+    """The first target apex (m) of the episode ``key``: ``t_0 = U(target_min, target_max)``; ``c`` holds the
+    parameters named in ``STEP_CONSTANTS``, ``offsets`` the rng stream offsets of the first target and of the
+    ratios (:func:`_next_target`)."""
+    target_min, target_max = c[6], c[7]
+    return target_min + (target_max - target_min) * rng.lane(rng.stream_base(key, offsets[0], np.uint64(0)), 0)
+
+
+@njit(cache=True, inline="always")
+def _next_target(key: np.uint64, index: int, previous: float, c: np.ndarray, offsets: np.ndarray) -> float:
+    """Target apex number ``index >= 1`` (m) of the episode ``key``, from target ``index - 1`` (``previous``): a
+    random walk, ``t_k = clip(t_{k-1} U(target_ratio_min, target_ratio_max), target_min, target_max)``, drawn from
+    the episode key alone (never from the actions). Branch-free, so that loops over episodes run as SIMD code."""
     target_min, target_max, ratio_min, ratio_max = c[6], c[7], c[8], c[9]
-    if index == 0:
-        return target_min + (target_max - target_min) * rng.lane(rng.stream_base(key, offsets[0], np.uint64(0)), 0)
     u = rng.lane(rng.stream_base(key, offsets[1], np.uint64(index)), 0)
     return min(max(previous * (ratio_min + (ratio_max - ratio_min) * u), target_min), target_max)
 
@@ -100,9 +106,11 @@ def _target(key: np.uint64, index: int, previous: float, c: np.ndarray, offsets:
 @njit(cache=True)
 def _fill_targets(key: np.uint64, out: np.ndarray, c: np.ndarray, offsets: np.ndarray) -> None:
     """The first ``len(out)`` targets (m) of the episode ``key``, written into ``out``."""
-    previous = 0.0
-    for k in range(len(out)):
-        previous = out[k] = _target(key, k, previous, c, offsets)
+    if len(out) == 0:
+        return
+    previous = out[0] = _first_target(key, c, offsets)
+    for k in range(1, len(out)):
+        previous = out[k] = _next_target(key, k, previous, c, offsets)
 
 
 @njit(cache=True)
@@ -178,7 +186,7 @@ def _step_kernel(
         for i in range(n):
             targets[i, k] = targets[i, k + 1]
     for i in range(n):
-        newest[i] = _target(keys[i], step[i] + lookahead + 1, newest[i], c, offsets)
+        newest[i] = _next_target(keys[i], step[i] + lookahead + 1, newest[i], c, offsets)
     for i in range(n):
         targets[i, lookahead] = newest[i]
     _observe_kernel(speed, targets, c, obs)
@@ -210,7 +218,7 @@ def _charge_rest(
             skipped[k] = 0.0
             continue
         if k - step[i] > lookahead:
-            previous = _target(keys[i], k, previous, c, offsets)
+            previous = _next_target(keys[i], k, previous, c, offsets)
         skipped[k] = (targets[i, k - step[i]] if k - step[i] <= lookahead else previous) - radius
     rest_cost = pairwise_sum(skipped) / height_scale
     errors = error_sum[i] + rest_cost
