@@ -103,21 +103,22 @@ def _next_target(key: np.uint64, index: int, previous: float, c: np.ndarray, off
     return min(max(previous * (ratio_min + (ratio_max - ratio_min) * u), target_min), target_max)
 
 
-@njit(cache=True)
-def _fill_targets(key: np.uint64, out: np.ndarray, c: np.ndarray, offsets: np.ndarray) -> None:
-    """The first ``len(out)`` targets (m) of the episode ``key``, written into ``out``."""
-    if len(out) == 0:
-        return
-    previous = out[0] = _first_target(key, c, offsets)
-    for k in range(1, len(out)):
-        previous = out[k] = _next_target(key, k, previous, c, offsets)
+@njit(cache=True, nogil=True, inline="always")
+def _draw_targets(keys: np.ndarray, rows: np.ndarray, targets: np.ndarray, c: np.ndarray, offsets: np.ndarray) -> None:
+    """The first ``targets.shape[1]`` targets (m) of the episodes ``keys`` written into the rows ``rows`` of
+    ``targets``: a pass over the episodes per target (SIMD code, into scratch) and its scattered store."""
+    walk = scratch(len(keys))
+    for k in range(targets.shape[1]):
+        for j in range(len(keys)):
+            walk[j] = _first_target(keys[j], c, offsets) if k == 0 else _next_target(keys[j], k, walk[j], c, offsets)
+        for j in range(len(keys)):
+            targets[rows[j], k] = walk[j]
 
 
 @njit(cache=True)
 def _targets_kernel(keys: np.ndarray, count: int, c: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     out = np.empty((len(keys), count))
-    for i in range(len(keys)):
-        _fill_targets(keys[i], out[i], c, offsets)
+    _draw_targets(keys, np.arange(len(keys)), out, c, offsets)
     return out
 
 
@@ -150,10 +151,10 @@ def _step_kernel(
 
     Written as passes over the batch: the bounce and the draw of the newest targets as loops without calls or
     exits that the compiler turns into SIMD code (over contiguous copies of the targets' columns, whose row width
-    is a runtime value), the targets' shift and the observation (strided), and a pass over the few balls that came
-    to rest.
+    is a runtime value), the targets' shift and the observation (strided), and passes over copies of the balls
+    that came to rest (:func:`_charge_rest`).
     """
-    radius, gravity, rest_speed, height_scale, bounces_planned, success_error = c[0], c[1], c[2], c[3], c[4], c[5]
+    radius, gravity, rest_speed, height_scale, success_error = c[0], c[1], c[2], c[3], c[5]
     n, lookahead = len(action), targets.shape[1] - 1
     current, newest = scratch(n), scratch(n)  # targets' columns, contiguous: their row width is a runtime value
     for i in range(n):
@@ -178,10 +179,7 @@ def _step_kernel(
         terminated[i] = at_rest
     for i in range(n):  # a pass of its own: strided stores would keep the bounce's pass from SIMD code
         terms[i, 0], terms[i, 1] = reward[i], -0.0
-    skipped = np.empty(int(bounces_planned))
-    for i in range(n):
-        if terminated[i]:
-            _charge_rest(i, keys, step, targets, c, offsets, skipped, error_sum, terms, reward, success)
+    _charge_rest(keys, step, targets, c, offsets, terminated, error_sum, terms, reward, success)
     for k in range(lookahead):
         for i in range(n):
             targets[i, k] = targets[i, k + 1]
@@ -194,44 +192,58 @@ def _step_kernel(
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _charge_rest(
-    i: int,
     keys: np.ndarray,
     step: np.ndarray,
     targets: np.ndarray,
     c: np.ndarray,
     offsets: np.ndarray,
-    skipped: np.ndarray,
+    at_rest: np.ndarray,
     error_sum: np.ndarray,
     terms: np.ndarray,
     reward: np.ndarray,
     success: np.ndarray,
 ) -> None:
-    """Charge episode ``i``, whose ball came to rest at this step, every planned bounce it skips, as if at
-    ``h = radius``: its rest term, reward, error sum and is_success (over all planned bounces). The skipped targets
-    are the episode's ``targets`` row (not yet shifted) and, beyond it, the rest of its random walk; ``skipped`` is
-    scratch space of ``episode_bounces`` floats."""
+    """Charge the episodes whose ball came to rest at this step (``at_rest``) every planned bounce they skip, as if
+    at ``h = radius``: their rest term, reward, error sum and is_success (over all planned bounces). The skipped
+    targets are the episode's ``targets`` row (not yet shifted) and, beyond it, the rest of its random walk.
+
+    Written as passes over copies of those episodes: per planned bounce, its skipped height (zero for the bounces
+    made; SIMD code, the walk drawn for every episode and kept where it is needed), then each episode's sum."""
     radius, height_scale, bounces_planned, success_error = c[0], c[3], c[4], c[5]
-    bounces, lookahead = step[i] + 1, targets.shape[1] - 1
-    previous = targets[i, lookahead]
-    for k in range(len(skipped)):
-        if k < bounces:
-            skipped[k] = 0.0
-            continue
-        if k - step[i] > lookahead:
-            previous = _next_target(keys[i], k, previous, c, offsets)
-        skipped[k] = (targets[i, k - step[i]] if k - step[i] <= lookahead else previous) - radius
-    rest_cost = pairwise_sum(skipped) / height_scale
-    errors = error_sum[i] + rest_cost
-    error_sum[i] = errors
-    success[i] = errors / max(bounces, bounces_planned) <= success_error
-    terms[i, 1] = -rest_cost
-    reward[i] = terms[i, 0] - rest_cost
+    lookahead, planned = targets.shape[1] - 1, int(bounces_planned)
+    rows = np.flatnonzero(at_rest)
+    m = len(rows)
+    if m == 0:
+        return
+    key, taken, walk = np.empty(m, np.uint64), np.empty(m, np.int64), scratch(m)
+    for j in range(m):
+        key[j], taken[j], walk[j] = keys[rows[j]], step[rows[j]], targets[rows[j], lookahead]
+    skipped = np.empty((planned, m))
+    for k in range(planned):
+        heights = skipped[k]
+        for j in range(m):
+            ahead = k - taken[j]  # the bounce's column in the episode's targets row
+            if k > lookahead:  # only then can a bounce lie past the row (the loop is compiled once per case)
+                walk[j] = _next_target(key[j], k, walk[j], c, offsets) if ahead > lookahead else walk[j]
+            shown = targets[rows[j], min(max(ahead, 0), lookahead)]
+            heights[j] = 0.0 if ahead < 1 else (shown if ahead <= lookahead else walk[j]) - radius
+    column = np.empty(planned)
+    for j in range(m):
+        for k in range(planned):
+            column[k] = skipped[k, j]
+        rest_cost = pairwise_sum(column) / height_scale
+        i = rows[j]
+        errors = error_sum[i] + rest_cost
+        error_sum[i] = errors
+        success[i] = errors / max(taken[j] + 1, bounces_planned) <= success_error
+        terms[i, 1] = -rest_cost
+        reward[i] = terms[i, 0] - rest_cost
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _start_row(
-    r: int,
-    key: np.uint64,
+def _start(
+    keys: np.ndarray,
+    rows: np.ndarray,
     speed: np.ndarray,
     time: np.ndarray,
     targets: np.ndarray,
@@ -239,11 +251,12 @@ def _start_row(
     c: np.ndarray,
     offsets: np.ndarray,
 ) -> None:
-    """The fresh episode of ``key`` written in place into row ``r`` of the state arrays (``speed`` to
-    ``error_sum``), as ``BouncingBallTask.initial_state`` draws it; ``c`` holds the parameters named in
+    """Fresh episodes of ``keys`` written in place into the rows ``rows`` of the state arrays (``speed`` to
+    ``error_sum``), as ``BouncingBallTask.initial_state`` draws them; ``c`` holds the parameters named in
     ``STEP_CONSTANTS``, then the time of the first impact."""
-    speed[r], time[r], error_sum[r] = c[10], c[11], 0.0
-    _fill_targets(key, targets[r], c, offsets)
+    for j in range(len(rows)):
+        speed[rows[j]], time[rows[j]], error_sum[rows[j]] = c[10], c[11], 0.0
+    _draw_targets(keys, rows, targets, c, offsets)
 
 
 @njit(cache=True, nogil=True)
@@ -257,9 +270,8 @@ def _start_kernel(
     c: np.ndarray,
     offsets: np.ndarray,
 ) -> None:
-    """Fresh episodes of ``keys`` in the rows ``rows`` of the state arrays (:func:`_start_row`)."""
-    for j in range(len(rows)):
-        _start_row(rows[j], keys[j], speed, time, targets, error_sum, c, offsets)
+    """Fresh episodes of ``keys`` in the rows ``rows`` of the state arrays (:func:`_start`)."""
+    _start(keys, rows, speed, time, targets, error_sum, c, offsets)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -275,12 +287,13 @@ def _restart_kernel(
     obs: np.ndarray,
 ) -> None:
     """The next episode of the episodes ``rows`` (:meth:`~vegym.envs.base.Task.restart`): their ``keys`` advanced
-    in place, the episodes started (:func:`_start_row`) and observed into those rows of ``obs``."""
+    in place, the episodes started (:func:`_start`) and observed into those rows of ``obs``."""
+    next_keys = np.empty(len(rows), np.uint64)
     for j in range(len(rows)):
-        r = rows[j]
-        keys[r] = rng.next_key_one(keys[r])
-        _start_row(r, keys[r], speed, time, targets, error_sum, c, offsets)
-        _observe_row(r, speed, targets, c, obs)
+        next_keys[j] = keys[rows[j]] = rng.next_key_one(keys[rows[j]])
+    _start(next_keys, rows, speed, time, targets, error_sum, c, offsets)
+    for j in range(len(rows)):
+        _observe_row(rows[j], speed, targets, c, obs)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
