@@ -234,6 +234,31 @@ def check_actions(action: Any, target: np.ndarray) -> np.ndarray:
     return target
 
 
+_DIRECT_DTYPES = (np.dtype(np.float32), np.dtype(np.float64))
+
+
+class ActionLoader:
+    """Loads and checks actions as :func:`check_actions` does, into one float64 ``(n, action_dim)`` array that it
+    reuses; float32 and float64 arrays of the shapes an env steps with take a short path (no conversions)."""
+
+    def __init__(self, n: int, action_shape: tuple[int, ...]) -> None:
+        self.target = np.empty((n, *action_shape))
+        dim = self.target.shape[1]
+        self._direct_shapes = frozenset({(n, dim), *([(dim,)] if n == 1 else []), *([(n,)] if dim == 1 else [])})
+
+    def __call__(self, action: Any) -> np.ndarray:
+        """``action`` loaded into the target array (the array returned); ValueError as :func:`check_actions`."""
+        if (
+            type(action) is np.ndarray
+            and action.shape in self._direct_shapes
+            and action.dtype in _DIRECT_DTYPES
+            and action.flags.c_contiguous
+            and _load_actions(action, self.target, ACTION_TOLERANCE) == 0
+        ):
+            return self.target
+        return check_actions(action, self.target)  # other arrays, and the errors
+
+
 def load_object(path: str) -> Any:
     """Import ``"package.module:Name"``."""
     module, name = path.split(":")
@@ -307,7 +332,7 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
         self.observation_space = self.task.observation_space
         self.action_space = self.task.action_space
         self.state: State | None = None
-        self._action = np.empty((1, *self.action_space.shape))
+        self._load_action = ActionLoader(1, self.action_space.shape)
         self._out = self.task.outputs(1)
         self._read_info: Callable[[], Info] | None = None
         self._renderer: Any = None
@@ -340,7 +365,7 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
         if self.state is None:
             raise gym.error.ResetNeeded("Call reset() before step().")
         out = self._out
-        self.task.step(self.state, check_actions(action, self._action), out)
+        self.task.step(self.state, self._load_action(action), out)
         step = self.state["step"]
         step[0] = step.item(0) + 1
         info = self._read_info()  # type: ignore[misc]
@@ -473,7 +498,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         self.observation_space = batch_space(self.single_observation_space, num_envs)
         self.action_space = batch_space(self.single_action_space, num_envs)
         self.state: State | None = None
-        self._action = np.empty((num_envs, *self.single_action_space.shape))
+        self._load_actions = ActionLoader(num_envs, self.single_action_space.shape)
         self._autoreset = np.zeros(num_envs, dtype=bool)
         self._every = np.arange(num_envs)
         self._constants: dict[tuple[type, Any], np.ndarray] = {}
@@ -550,7 +575,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         state = self.state
         if state is None:
             raise gym.error.ResetNeeded("Call reset() before step().")
-        a = check_actions(actions, self._action)
+        a = self._load_actions(actions)
         out = self.task.outputs(self.num_envs)
         resetting = self._autoreset
         every_resets = resetting.all()
