@@ -48,8 +48,9 @@ class Task(abc.ABC, Generic[P]):
 
     Subclasses set ``params_cls``, build ``observation_space`` and ``action_space`` (single-env spaces) in
     ``__init__``, and implement the methods below. ``state`` dicts always carry ``key`` (uint64 episode keys)
-    and ``step`` (steps taken in the episode), maintained by the front ends. ``step``, ``observe`` and ``start``
-    must work on any row slice of the state (the vector env hands them chunks of its arrays, concurrently).
+    and ``step`` (steps taken in the episode), maintained by the front ends. ``step``, ``observe``, ``start`` and
+    ``restart`` must work on any row slice of the state (the vector env hands them chunks of its arrays,
+    concurrently).
     """
 
     params_cls: ClassVar[type[Params]]
