@@ -69,6 +69,32 @@ def test_zero_restitution_puts_the_ball_at_rest_and_charges_every_skipped_bounce
     assert gym.spec(ENV_ID).max_episode_steps == BouncingBallParams().episode_bounces
 
 
+@pytest.mark.parametrize(
+    ("lookahead", "episode_bounces", "bounces_before"),
+    [(0, 1, 0), (0, 4, 2), (3, 2, 0), (2, 3000, 1)],
+    ids=["no lookahead, one bounce", "no lookahead", "planned within the shown targets", "rest charged in blocks"],
+)
+def test_every_ball_at_rest_in_a_vector_env_is_charged_the_targets_it_skips(
+    lookahead: int, episode_bounces: int, bounces_before: int
+) -> None:
+    """The rest charge runs over copies of the resting episodes, in blocks (3,000 planned bounces: 21 episodes per
+    block); every episode is charged the sum of its skipped targets, as numpy sums them."""
+    n = 64
+    params = {"lookahead": lookahead, "episode_bounces": episode_bounces}
+    vec = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", **params)
+    vec.reset(seed=3)
+    task = vec.unwrapped.task
+    targets = task.targets(vec.unwrapped.state["key"], episode_bounces)
+    for _ in range(bounces_before):
+        vec.step(np.ones((n, 1), np.float32))
+    _, reward, terminated, _, info = vec.step(-np.ones((n, 1), np.float32))
+    assert terminated.all()
+    made = bounces_before + 1
+    expected = np.array([-np.sum(row[made:] - task.params.radius) / task.params.height_scale for row in targets])
+    np.testing.assert_allclose(info["reward_terms"]["rest"], expected, rtol=1e-12, atol=0.0)
+    np.testing.assert_allclose(reward, info["reward_terms"]["apex_error"] + expected, rtol=1e-12)
+
+
 def test_coming_to_rest_early_never_pays() -> None:
     env = gym.make(ENV_ID)
     controller = controller_for(env)

@@ -42,12 +42,6 @@ def next_key_one(key: np.uint64) -> np.uint64:
     return _mix_one(key ^ _NEXT_EPISODE)
 
 
-@njit(cache=True)
-def _advance_each(keys: np.ndarray) -> None:
-    for i in range(keys.size):
-        keys[i] = next_key_one(keys[i])
-
-
 def _mix(z: np.ndarray) -> np.ndarray:
     """SplitMix64 finaliser of every element of a uint64 array (any shape)."""
     z = np.asarray(z, dtype=np.uint64)
@@ -63,11 +57,6 @@ def seed_keys(seeds: np.ndarray | int) -> np.ndarray:
 def next_key(keys: np.ndarray) -> np.ndarray:
     """The key of the next episode of each sub-environment."""
     return _mix(keys ^ _NEXT_EPISODE)
-
-
-def advance(keys: np.ndarray) -> None:
-    """Replace every key of a contiguous 1-d uint64 array by :func:`next_key` of it, in place."""
-    _advance_each(keys)
 
 
 @njit(cache=True, inline="always")

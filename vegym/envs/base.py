@@ -308,7 +308,7 @@ def owned(state: State) -> State:
 
 
 _ROW_0 = np.zeros(1, dtype=np.intp)
-"""The rows argument of a single env's :meth:`Task.start`."""
+"""The rows argument of a single env's :meth:`Task.start` and :meth:`Task.restart`."""
 
 
 class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
@@ -473,7 +473,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
     NEXT_STEP autoreset: the step after a sub-env terminates or truncates resets it, returning its first
     observation with reward 0 and ``terminated = truncated = False``. Truncation comes from
     ``max_episode_steps`` (``make_vec`` passes the registered value). The state is updated in place; every
-    returned array is fresh and never written again (an info constant's is read-only, the same at every step).
+    returned array is fresh and never written again.
     """
 
     task_cls: ClassVar[type[Task]]
@@ -502,7 +502,6 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         self._load_actions = ActionLoader(num_envs, self.single_action_space.shape)
         self._autoreset = np.zeros(num_envs, dtype=bool)
         self._every = np.arange(num_envs)
-        self._constants: dict[tuple[type, Any], np.ndarray] = {}
 
     def reset(
         self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None
@@ -609,17 +608,9 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             if isinstance(value, Mapping):
                 out[name] = self._vector_info(value, mask, state_ids)
             elif not isinstance(value, np.ndarray):
-                out[name] = self._constant(value)
+                out[name] = np.full(self.num_envs, value)
             else:
                 shares_state = id(value) in state_ids or id(value.base) in state_ids
                 out[name] = value.copy() if shares_state else value
             out[f"_{name}"] = mask
         return out
-
-    def _constant(self, value: bool | int | float) -> np.ndarray:
-        """A read-only array of the info constant ``value`` for every sub-env, made once per value and type."""
-        array = self._constants.get((type(value), value))
-        if array is None:
-            array = self._constants[(type(value), value)] = np.full(self.num_envs, value)
-            array.flags.writeable = False
-        return array

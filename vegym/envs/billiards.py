@@ -185,11 +185,12 @@ def _restart_kernel(
     target: np.ndarray,
     obs: np.ndarray,
 ) -> None:
-    """Every episode's next one (:meth:`~vegym.envs.base.Task.restart` of all rows): ``keys`` advanced in place,
-    the episodes started (:func:`_start`, ``rows`` is ``arange(n)``) and observed into ``obs`` (:func:`_observe`)."""
-    for j in range(len(keys)):
-        keys[j] = rng.next_key_one(keys[j])
-    _start(keys, rows, c, offset, ball_a, ball_b, target)
+    """Every episode's next one (:meth:`~vegym.envs.base.Task.restart` of all rows, ``rows`` in any order): their
+    ``keys`` advanced in place, the episodes started (:func:`_start`) and observed into ``obs`` (:func:`_observe`)."""
+    next_keys = np.empty(len(rows), np.uint64)
+    for j in range(len(rows)):
+        next_keys[j] = keys[rows[j]] = rng.next_key_one(keys[rows[j]])
+    _start(next_keys, rows, c, offset, ball_a, ball_b, target)
     _observe(ball_a, ball_b, target, c, obs)
 
 
@@ -358,7 +359,7 @@ class BilliardsTask(Task[BilliardsParams]):
         _start_kernel(keys, rows, self._constants, self._offset, state["ball_a"], state["ball_b"], state["target"])
 
     def restart(self, state: State, rows: np.ndarray, obs: np.ndarray) -> None:
-        if len(rows) < len(obs):  # some rows (a masked reset)
+        if len(rows) < len(obs):  # some rows (sub-envs that ended while others go on): observed by rows
             super().restart(state, rows, obs)
             return
         _restart_kernel(

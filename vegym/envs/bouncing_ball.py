@@ -80,6 +80,9 @@ STEP_CONSTANTS = (
 )
 """Parameters the kernels read, in the order of their constants array (SI units, see the fields); the time of the
 first impact (s) follows them."""
+CHARGE_SCRATCH = 1 << 16
+"""Skipped heights (float64) the rest charge holds at once: its scratch stays within 512 KiB whatever
+``episode_bounces`` and the number of balls at rest."""
 REWARD_TERMS = ("apex_error", "rest")
 """Names of ``info["reward_terms"]``, in the order of the step kernel's ``terms`` columns."""
 
@@ -207,37 +210,40 @@ def _charge_rest(
     at ``h = radius``: their rest term, reward, error sum and is_success (over all planned bounces). The skipped
     targets are the episode's ``targets`` row (not yet shifted) and, beyond it, the rest of its random walk.
 
-    Written as passes over copies of those episodes: per planned bounce, its skipped height (zero for the bounces
-    made; SIMD code, the walk drawn for every episode and kept where it is needed), then each episode's sum."""
+    Written as passes over copies of those episodes, in blocks of at most ``CHARGE_SCRATCH`` skipped heights: per
+    planned bounce, its skipped height (zero for the bounces made; SIMD code, the walk drawn for every episode and
+    kept where it is needed), then each episode's sum."""
     radius, height_scale, bounces_planned, success_error = c[0], c[3], c[4], c[5]
     lookahead, planned = targets.shape[1] - 1, int(bounces_planned)
-    rows = np.flatnonzero(at_rest)
-    m = len(rows)
-    if m == 0:
+    resting = np.flatnonzero(at_rest)
+    if len(resting) == 0:
         return
-    key, taken, walk = np.empty(m, np.uint64), np.empty(m, np.int64), scratch(m)
-    for j in range(m):
-        key[j], taken[j], walk[j] = keys[rows[j]], step[rows[j]], targets[rows[j], lookahead]
-    skipped = np.empty((planned, m))
-    for k in range(planned):
-        heights = skipped[k]
+    block = max(1, min(len(resting), CHARGE_SCRATCH // planned))
+    key, taken, walk = np.empty(block, np.uint64), np.empty(block, np.int64), scratch(block)
+    skipped, column = np.empty((planned, block)), np.empty(planned)
+    for first in range(0, len(resting), block):
+        rows = resting[first : first + block]
+        m = len(rows)
         for j in range(m):
-            ahead = k - taken[j]  # the bounce's column in the episode's targets row
-            if k > lookahead:  # only then can a bounce lie past the row (the loop is compiled once per case)
-                walk[j] = _next_target(key[j], k, walk[j], c, offsets) if ahead > lookahead else walk[j]
-            shown = targets[rows[j], min(max(ahead, 0), lookahead)]
-            heights[j] = 0.0 if ahead < 1 else (shown if ahead <= lookahead else walk[j]) - radius
-    column = np.empty(planned)
-    for j in range(m):
+            key[j], taken[j], walk[j] = keys[rows[j]], step[rows[j]], targets[rows[j], lookahead]
         for k in range(planned):
-            column[k] = skipped[k, j]
-        rest_cost = pairwise_sum(column) / height_scale
-        i = rows[j]
-        errors = error_sum[i] + rest_cost
-        error_sum[i] = errors
-        success[i] = errors / max(taken[j] + 1, bounces_planned) <= success_error
-        terms[i, 1] = -rest_cost
-        reward[i] = terms[i, 0] - rest_cost
+            heights = skipped[k]
+            for j in range(m):
+                ahead = k - taken[j]  # the bounce's column in the episode's targets row
+                if k > lookahead:  # only then can a bounce lie past the row (the loop is compiled once per case)
+                    walk[j] = _next_target(key[j], k, walk[j], c, offsets) if ahead > lookahead else walk[j]
+                shown = targets[rows[j], min(max(ahead, 0), lookahead)]
+                heights[j] = 0.0 if ahead < 1 else (shown if ahead <= lookahead else walk[j]) - radius
+        for j in range(m):
+            for k in range(planned):
+                column[k] = skipped[k, j]
+            rest_cost = pairwise_sum(column) / height_scale
+            i = rows[j]
+            errors = error_sum[i] + rest_cost
+            error_sum[i] = errors
+            success[i] = errors / max(taken[j] + 1, bounces_planned) <= success_error
+            terms[i, 1] = -rest_cost
+            reward[i] = terms[i, 0] - rest_cost
 
 
 @njit(cache=True, nogil=True, inline="always")
