@@ -366,6 +366,9 @@ def run_worker(settings: SweepSettings, name: str = "worker", log: Callable[[str
     ran = failures = 0
 
     def unlocked_objective(trial: optuna.Trial) -> float:
+        # Optuna's heartbeat thread records the first beat whenever it gets to run, and a trial without one never
+        # goes stale: a worker killed before it would leave its trial running for good and the others waiting.
+        study._storage.record_heartbeat(trial._trial_id)
         lock.release()  # the trial exists now: other workers count it and may go on
         log(f"{name}: trial {trial.number} started")
         return objective(trial, settings, score)

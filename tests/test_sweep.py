@@ -14,11 +14,13 @@ from pathlib import Path
 import optuna
 import pytest
 from optuna.storages import RetryHeartbeatStaleTrialCallback
+from optuna.storages._heartbeat import HeartbeatThread
 from optuna.trial import TrialState
 
+from agents import sweep as sweep_module
 from agents.cli import main
 from agents.config import CONFIG_DIR, load_config, load_configs, with_overrides
-from agents.sweep import parse_tune_env, sample_hyperparams
+from agents.sweep import SweepSettings, parse_tune_env, run_worker, sample_hyperparams
 
 VEGYM = [sys.executable, "-c", "import sys; from agents.cli import main; sys.exit(main())"]
 POSTGRES_URL = os.environ.get("VEGYM_TEST_POSTGRES_URL")
@@ -159,6 +161,27 @@ def test_the_other_worker_finishes_the_study_of_a_killed_worker(tmp_path: Path) 
     trials = optuna.load_study(study_name=study, storage=storage).get_trials()
     for failed in (t for t in trials if t.state == TrialState.FAIL):
         assert any(RetryHeartbeatStaleTrialCallback.retried_trial_number(t) == failed.number for t in trials)
+
+
+def test_a_trial_has_a_heartbeat_before_its_objective_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Optuna's heartbeat thread beats whenever it gets to run, and a trial without a beat never goes stale: a
+    worker killed before it would leave its trial running for good and the other workers waiting for it (seen in
+    the killed-worker test under load). The worker records the first beat itself; here the thread never beats."""
+    database = tmp_path / "study.db"
+    monkeypatch.setattr(HeartbeatThread, "start", lambda self: None)
+    monkeypatch.setattr(HeartbeatThread, "join", lambda self: None)
+    beats: list[int] = []
+
+    def count_beats(trial: optuna.Trial, settings: SweepSettings, score: object) -> float:
+        with sqlite3.connect(database) as connection:
+            query = "SELECT COUNT(*) FROM trial_heartbeats WHERE trial_id = ?"
+            beats.append(connection.execute(query, (trial._trial_id,)).fetchone()[0])
+        return 0.0
+
+    monkeypatch.setattr(sweep_module, "objective", count_beats)
+    settings = SweepSettings("vegym/BouncingBall-v0", "td3", 2, f"sqlite:///{database}", "beats", eval_episodes=1)
+    assert run_worker(settings, log=lambda line: None) == 2
+    assert beats == [1, 1]
 
 
 @pytest.mark.parametrize("algo", ["ppo", "sac", "td3"])
