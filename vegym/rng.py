@@ -37,9 +37,13 @@ def _mix_each(z: np.ndarray) -> np.ndarray:
 
 
 @njit(cache=True, inline="always")
-def next_key_one(key: np.uint64) -> np.uint64:
-    """:func:`next_key` of one key, for kernels (inlined: numba's cache does not see edits to it, clear it)."""
-    return _mix_one(key ^ _NEXT_EPISODE)
+def advance_rows(keys: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """For kernels: replace the keys of the rows ``rows`` (int indices) of ``keys`` by :func:`next_key` of them, in
+    place, and return those new keys (inlined: numba's cache does not see edits to it, clear it)."""
+    advanced = np.empty(len(rows), np.uint64)
+    for j in range(len(rows)):
+        advanced[j] = keys[rows[j]] = _mix_one(keys[rows[j]] ^ _NEXT_EPISODE)
+    return advanced
 
 
 def _mix(z: np.ndarray) -> np.ndarray:

@@ -187,9 +187,7 @@ def _restart_kernel(
 ) -> None:
     """Every episode's next one (:meth:`~vegym.envs.base.Task.restart` of all rows, ``rows`` in any order): their
     ``keys`` advanced in place, the episodes started (:func:`_start`) and observed into ``obs`` (:func:`_observe`)."""
-    next_keys = np.empty(len(rows), np.uint64)
-    for j in range(len(rows)):
-        next_keys[j] = keys[rows[j]] = rng.next_key_one(keys[rows[j]])
+    next_keys = rng.advance_rows(keys, rows)
     _start(next_keys, rows, c, offset, ball_a, ball_b, target)
     _observe(ball_a, ball_b, target, c, obs)
 

@@ -294,9 +294,7 @@ def _restart_kernel(
 ) -> None:
     """The next episode of the episodes ``rows`` (:meth:`~vegym.envs.base.Task.restart`): their ``keys`` advanced
     in place, the episodes started (:func:`_start`) and observed into those rows of ``obs``."""
-    next_keys = np.empty(len(rows), np.uint64)
-    for j in range(len(rows)):
-        next_keys[j] = keys[rows[j]] = rng.next_key_one(keys[rows[j]])
+    next_keys = rng.advance_rows(keys, rows)
     _start(next_keys, rows, speed, time, targets, error_sum, c, offsets)
     for j in range(len(rows)):
         _observe_row(rows[j], speed, targets, c, obs)

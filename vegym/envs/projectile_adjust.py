@@ -151,9 +151,7 @@ def _restart_kernel(
     ``shot_c``), their memory emptied and observed (:func:`_observe` over copies of their rows, ``c`` its
     constants) into those rows of ``obs``."""
     m = len(rows)
-    next_keys = np.empty(m, np.uint64)
-    for j in range(m):
-        next_keys[j] = keys[rows[j]] = rng.next_key_one(keys[rows[j]])
+    next_keys = rng.advance_rows(keys, rows)
     _start(next_keys, rows, shot_c, offset, launch, target, wind, bearing, landing)
     _clear(rows, misses, actions, shots)
     observed = np.empty((m, obs.shape[1]), np.float32)

@@ -311,9 +311,7 @@ def _restart_kernel(
     in place, the episodes started (:func:`_start`) and observed (:func:`_observe` over copies of their rows) into
     those rows of ``obs``."""
     m = len(rows)
-    next_keys = np.empty(m, np.uint64)
-    for j in range(m):
-        next_keys[j] = keys[rows[j]] = rng.next_key_one(keys[rows[j]])
+    next_keys = rng.advance_rows(keys, rows)
     _start(next_keys, rows, setup_offset, extent, position, heading, roll, speed, waypoints, index)
     observed = np.empty((m, obs.shape[1]), np.float32)
     _observe(position[rows], heading[rows], speed[rows], waypoints[rows], index[rows], c, observed)
