@@ -144,17 +144,23 @@ def test_the_other_worker_finishes_the_study_of_a_killed_worker(tmp_path: Path) 
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        start_new_session=True,
     )
-    deadline = time.monotonic() + 300
-    while not training_trials(tmp_path / "study.db"):
-        if time.monotonic() > deadline:
-            pytest.fail("no worker started a trial")
-        time.sleep(0.2)
-    children = Path(f"/proc/{command.pid}/task/{command.pid}/children").read_text().split()
-    workers = [int(pid) for pid in children if "spawn_main" in Path(f"/proc/{pid}/cmdline").read_text()]
-    assert len(workers) == 2
-    os.kill(workers[0], signal.SIGKILL)
-    stdout, stderr = command.communicate(timeout=600)
+    try:
+        deadline = time.monotonic() + 300
+        while not training_trials(tmp_path / "study.db"):
+            if time.monotonic() > deadline:
+                pytest.fail("no worker started a trial")
+            time.sleep(0.2)
+        children = Path(f"/proc/{command.pid}/task/{command.pid}/children").read_text().split()
+        workers = [int(pid) for pid in children if "spawn_main" in Path(f"/proc/{pid}/cmdline").read_text()]
+        assert len(workers) == 2
+        os.kill(workers[0], signal.SIGKILL)
+        stdout, stderr = command.communicate(timeout=600)
+    finally:  # a failed or timed-out test leaves no sweep behind
+        if command.poll() is None:
+            os.killpg(command.pid, signal.SIGKILL)
+            command.wait()
     assert command.returncode == 0, stdout + stderr
     assert "stopped, but the others finished the study" in stdout
     assert_complete_study(storage, study, 4)
