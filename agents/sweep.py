@@ -13,8 +13,9 @@ machines. Workers, in one process or in many on many machines, share the study t
   running trials, under a lock held in the storage's own terms (a lock file beside the SQLite file, a PostgreSQL
   advisory lock), so the study ends with exactly that many finished trials;
 - running trials send a heartbeat; a trial whose worker died (killed, machine lost) is failed once its heartbeat
-  is older than the grace period, and its parameters are queued again, so the next worker retries them. Running
-  the same ``vegym sweep`` command again resumes a study.
+  is older than the grace period (or at once if the worker died before its first heartbeat), and its parameters
+  are queued again, so the next worker retries them. Running the same ``vegym sweep`` command again resumes a
+  study.
 """
 
 from __future__ import annotations
@@ -354,6 +355,25 @@ def _counts(study: optuna.Study) -> dict[TrialState, int]:
     return counts
 
 
+STARTED = "started"
+"""User attribute a worker gives the trial it runs, holding the study lock, after the trial's first heartbeat: the
+trial's number (a retried trial inherits its original's attributes; the number tells them apart)."""
+
+
+def fail_orphaned_trials(study: optuna.Study) -> None:
+    """Fail the running trials whose worker died before it marked them (``STARTED``), and queue them again as
+    stale trials are. A worker creates a trial, records its first heartbeat and marks it while holding the study
+    lock, so a running trial seen unmarked under the lock has no live worker, and Optuna never fails it as stale
+    (a trial without a heartbeat never goes stale). Call it holding the lock."""
+    storage = study._storage
+    retry = storage.get_heartbeat_stale_trial_callback()
+    for trial in study.get_trials(deepcopy=False, states=(TrialState.RUNNING,)):
+        if trial.user_attrs.get(STARTED) == trial.number:
+            continue
+        if storage.set_trial_state_values(trial._trial_id, state=TrialState.FAIL) and retry is not None:
+            retry(study, storage.get_trial(trial._trial_id))
+
+
 def run_worker(settings: SweepSettings, name: str = "worker", log: Callable[[str], None] = print) -> int:
     """Run trials until the study holds ``settings.trials`` finished ones; return how many this worker ran.
 
@@ -366,10 +386,9 @@ def run_worker(settings: SweepSettings, name: str = "worker", log: Callable[[str
     ran = failures = 0
 
     def unlocked_objective(trial: optuna.Trial) -> float:
-        # Optuna's heartbeat thread records the first beat whenever it gets to run, and a trial without one never
-        # goes stale: a worker killed before it would leave its trial running for good and the others waiting.
-        study._storage.record_heartbeat(trial._trial_id)
-        lock.release()  # the trial exists now: other workers count it and may go on
+        study._storage.record_heartbeat(trial._trial_id)  # Optuna's heartbeat thread beats whenever it gets to run
+        trial.set_user_attr(STARTED, trial.number)
+        lock.release()  # the trial exists now, marked: other workers count it and may go on
         log(f"{name}: trial {trial.number} started")
         return objective(trial, settings, score)
 
@@ -386,6 +405,7 @@ def run_worker(settings: SweepSettings, name: str = "worker", log: Callable[[str
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
                     fail_stale_trials(study)
+                fail_orphaned_trials(study)
                 counts = _counts(study)
                 finished = sum(counts[s] for s in FINISHED)
                 if finished >= settings.trials:

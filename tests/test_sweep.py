@@ -169,10 +169,26 @@ def test_the_other_worker_finishes_the_study_of_a_killed_worker(tmp_path: Path) 
         assert any(RetryHeartbeatStaleTrialCallback.retried_trial_number(t) == failed.number for t in trials)
 
 
+@pytest.mark.filterwarnings("ignore::optuna.exceptions.ExperimentalWarning")  # retried_trial_number
+def test_a_trial_left_before_its_first_heartbeat_is_failed_and_retried(tmp_path: Path) -> None:
+    """A worker killed between creating its trial and the trial's first heartbeat leaves a running trial that
+    Optuna never fails as stale; the next worker must fail and retry it instead of waiting for it forever (this
+    hung the killed-worker test under load)."""
+    storage, study = f"sqlite:///{tmp_path / 'study.db'}", "orphan"
+    first = subprocess.run(sweep_args(storage, study, 1), capture_output=True, text=True, timeout=600)
+    assert first.returncode == 0, first.stdout + first.stderr
+    orphan = optuna.load_study(study_name=study, storage=storage).ask()  # running, no heartbeat, no worker
+    again = subprocess.run(sweep_args(storage, study, 3), capture_output=True, text=True, timeout=300)
+    assert again.returncode == 0, again.stdout + again.stderr
+    assert_complete_study(storage, study, 3)
+    trials = optuna.load_study(study_name=study, storage=storage).get_trials()
+    assert trials[orphan.number].state == TrialState.FAIL
+    assert [RetryHeartbeatStaleTrialCallback.retried_trial_number(t) for t in trials].count(orphan.number) == 1
+
+
 def test_a_trial_has_a_heartbeat_before_its_objective_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    """Optuna's heartbeat thread beats whenever it gets to run, and a trial without a beat never goes stale: a
-    worker killed before it would leave its trial running for good and the other workers waiting for it (seen in
-    the killed-worker test under load). The worker records the first beat itself; here the thread never beats."""
+    """A worker records its trial's first heartbeat itself (Optuna's heartbeat thread beats whenever it gets to
+    run; here it never does), so that a worker killed later leaves a trial that goes stale."""
     database = tmp_path / "study.db"
     monkeypatch.setattr(HeartbeatThread, "start", lambda self: None)
     monkeypatch.setattr(HeartbeatThread, "join", lambda self: None)
