@@ -161,20 +161,6 @@ def _start(
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _start_kernel(
-    keys: np.ndarray,
-    rows: np.ndarray,
-    c: np.ndarray,
-    offset: np.uint64,
-    ball_a: np.ndarray,
-    ball_b: np.ndarray,
-    target: np.ndarray,
-) -> None:
-    """Fresh episodes of ``keys`` in the rows ``rows`` of the state arrays (:func:`_start`)."""
-    _start(keys, rows, c, offset, ball_a, ball_b, target)
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
 def _restart_kernel(
     keys: np.ndarray,
     rows: np.ndarray,
@@ -354,7 +340,7 @@ class BilliardsTask(Task[BilliardsParams]):
         return state
 
     def start(self, state: State, keys: np.ndarray, rows: np.ndarray) -> None:
-        _start_kernel(keys, rows, self._constants, self._offset, state["ball_a"], state["ball_b"], state["target"])
+        _start(keys, rows, self._constants, self._offset, state["ball_a"], state["ball_b"], state["target"])
 
     def restart(self, state: State, rows: np.ndarray, obs: np.ndarray) -> None:
         if len(rows) < len(obs):  # some rows (sub-envs that ended while others go on): observed by rows

@@ -265,21 +265,6 @@ def _start(
     _draw_targets(keys, rows, targets, c, offsets)
 
 
-@njit(cache=True, nogil=True)
-def _start_kernel(
-    keys: np.ndarray,
-    rows: np.ndarray,
-    speed: np.ndarray,
-    time: np.ndarray,
-    targets: np.ndarray,
-    error_sum: np.ndarray,
-    c: np.ndarray,
-    offsets: np.ndarray,
-) -> None:
-    """Fresh episodes of ``keys`` in the rows ``rows`` of the state arrays (:func:`_start`)."""
-    _start(keys, rows, speed, time, targets, error_sum, c, offsets)
-
-
 @njit(cache=True, nogil=True, error_model="numpy")
 def _restart_kernel(
     keys: np.ndarray,
@@ -363,7 +348,7 @@ class BouncingBallTask(Task[BouncingBallParams]):
         }
 
     def start(self, state: State, keys: np.ndarray, rows: np.ndarray) -> None:
-        _start_kernel(
+        _start(
             keys, rows, state["speed"], state["time"], state["targets"], state["error_sum"], self._constants,
             self._offsets,
         )  # fmt: skip

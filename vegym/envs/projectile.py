@@ -160,22 +160,6 @@ def _start(
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _start_kernel(
-    keys: np.ndarray,
-    rows: np.ndarray,
-    c: np.ndarray,
-    offset: np.uint64,
-    launch: np.ndarray,
-    target: np.ndarray,
-    wind: np.ndarray,
-    bearing: np.ndarray,
-    landing: np.ndarray,
-) -> None:
-    """Fresh episodes of ``keys`` in the rows ``rows`` of the state arrays (:func:`_start`)."""
-    _start(keys, rows, c, offset, launch, target, wind, bearing, landing)
-
-
-@njit(cache=True, nogil=True, error_model="numpy")
 def _restart_kernel(
     keys: np.ndarray,
     rows: np.ndarray,
@@ -321,7 +305,7 @@ class ProjectileTask(Task[ProjectileEnvParams]):
         return state
 
     def start(self, state: State, keys: np.ndarray, rows: np.ndarray) -> None:
-        _start_kernel(
+        _start(
             keys, rows, self._constants, self._offset, state["launch_position"], state["target"], state["wind"],
             state["bearing"], state["landing_point"],
         )  # fmt: skip

@@ -123,12 +123,6 @@ def _clear(rows: np.ndarray, misses: np.ndarray, actions: np.ndarray, shots: np.
         shots[rows[j]] = 0
 
 
-@njit(cache=True, nogil=True)
-def _clear_kernel(rows: np.ndarray, misses: np.ndarray, actions: np.ndarray, shots: np.ndarray) -> None:
-    """Empty the shot memory of the rows ``rows``, in place (:func:`_clear`)."""
-    _clear(rows, misses, actions, shots)
-
-
 @njit(cache=True, nogil=True, error_model="numpy")
 def _restart_kernel(
     keys: np.ndarray,
@@ -240,7 +234,7 @@ class ProjectileAdjustTask(Task[ProjectileAdjustParams]):
 
     def start(self, state: State, keys: np.ndarray, rows: np.ndarray) -> None:
         self.shot.start(state, keys, rows)
-        _clear_kernel(rows, state["misses"], state["actions"], state["shots"])
+        _clear(rows, state["misses"], state["actions"], state["shots"])
 
     def restart(self, state: State, rows: np.ndarray, obs: np.ndarray) -> None:
         _restart_kernel(

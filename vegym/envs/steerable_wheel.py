@@ -184,7 +184,7 @@ def _step_kernel(
         term[5 * i], term[5 * i + 1], term[5 * i + 2], term[5 * i + 3], term[5 * i + 4] = t0, t1, t2, t3, t4
         reward[i] = t0 + t1 + t2 + t3 + t4
         success[i], terminated[i] = done, done or outside
-    _observe_kernel(position, heading, speed, waypoints, index, c, obs)
+    _observe(position, heading, speed, waypoints, index, c, obs)
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -232,20 +232,6 @@ def _observe(
         out[width * i + width - 1] = index[i] / n_waypoints
 
 
-@njit(cache=True, nogil=True, error_model="numpy")
-def _observe_kernel(
-    position: np.ndarray,
-    heading: np.ndarray,
-    speed: np.ndarray,
-    waypoints: np.ndarray,
-    index: np.ndarray,
-    c: np.ndarray,
-    obs: np.ndarray,
-) -> None:
-    """Observations (n, 8) written into ``obs`` (:func:`_observe`)."""
-    _observe(position, heading, speed, waypoints, index, c, obs)
-
-
 @njit(cache=True, nogil=True, inline="always")
 def _start(
     keys: np.ndarray,
@@ -273,23 +259,6 @@ def _start(
             waypoints[r, k, 0] = extent * (2.0 * rng.lane(base, 3 + 2 * k) - 1.0)
             waypoints[r, k, 1] = extent * (2.0 * rng.lane(base, 4 + 2 * k) - 1.0)
         roll[r], speed[r], index[r] = 0.0, 0.0, 0
-
-
-@njit(cache=True, nogil=True)
-def _start_kernel(
-    keys: np.ndarray,
-    rows: np.ndarray,
-    setup_offset: np.uint64,
-    extent: float,
-    position: np.ndarray,
-    heading: np.ndarray,
-    roll: np.ndarray,
-    speed: np.ndarray,
-    waypoints: np.ndarray,
-    index: np.ndarray,
-) -> None:
-    """Fresh episodes of ``keys`` in the rows ``rows`` of the state arrays (:func:`_start`)."""
-    _start(keys, rows, setup_offset, extent, position, heading, roll, speed, waypoints, index)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -354,7 +323,7 @@ class SteerableWheelTask(Task[SteerableWheelParams]):
         }
 
     def start(self, state: State, keys: np.ndarray, rows: np.ndarray) -> None:
-        _start_kernel(
+        _start(
             keys, rows, self._setup_offset, self.params.half_size - self.params.waypoint_margin, state["position"],
             state["heading"], state["roll"], state["speed"], state["waypoints"], state["index"],
         )  # fmt: skip
@@ -391,7 +360,7 @@ class SteerableWheelTask(Task[SteerableWheelParams]):
         }
 
     def observe(self, state: State, obs: np.ndarray) -> None:
-        _observe_kernel(
+        _observe(
             state["position"], state["heading"], state["speed"], state["waypoints"], state["index"], self._constants,
             obs,
         )  # fmt: skip
