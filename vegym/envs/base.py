@@ -206,19 +206,19 @@ def _end_flags(
         autoreset[i] = terminated[i] | truncated[i]
 
 
+def action_shapes(n: int, dim: int) -> frozenset[tuple[int, ...]]:
+    """The shapes in which ``n`` actions of ``dim`` numbers are taken: ``(n, dim)``, a single env's ``(dim,)`` and
+    ``(n,)`` for one-dimensional actions (and, by :func:`check_actions`, any shape of one number for one)."""
+    return frozenset({(n, dim), *([(dim,)] if n == 1 else []), *([(n,)] if dim == 1 else [])})
+
+
 def check_actions(action: Any, target: np.ndarray) -> np.ndarray:
     """Load ``action`` into ``target`` (float64, ``(n, action_dim)``) and return it. ValueError on another shape
     (also taken: a single env's ``(action_dim,)``, ``(n,)`` for one-dimensional actions, a scalar for one
     number), on NaN/inf and on values outside [-1, 1] by more than ``ACTION_TOLERANCE`` (those within are
     clipped)."""
     a = action if isinstance(action, np.ndarray) else np.asarray(action)
-    n, dim = target.shape
-    if not (
-        a.shape == target.shape
-        or (n == 1 and a.shape == (dim,))
-        or (dim == 1 and a.shape == (n,))
-        or (a.size == target.size == 1)
-    ):
+    if not (a.shape in action_shapes(*target.shape) or a.size == target.size == 1):
         raise ValueError(f"action has shape {a.shape}; expected {target.shape}")
     if a.dtype.kind not in "fiu" or not a.dtype.isnative or not 4 <= a.dtype.itemsize <= 8:
         try:  # bool, float16, long double, object, big-endian, ...: converted by numpy first
@@ -244,8 +244,7 @@ class ActionLoader:
 
     def __init__(self, n: int, action_shape: tuple[int, ...]) -> None:
         self.target = np.empty((n, *action_shape))
-        dim = self.target.shape[1]
-        self._direct_shapes = frozenset({(n, dim), *([(dim,)] if n == 1 else []), *([(n,)] if dim == 1 else [])})
+        self._direct_shapes = action_shapes(*self.target.shape)
 
     def __call__(self, action: Any) -> np.ndarray:
         """``action`` loaded into the target array (the array returned); ValueError as :func:`check_actions`."""
