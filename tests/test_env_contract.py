@@ -221,8 +221,8 @@ def test_observing_some_rows_writes_those_rows_of_the_full_observation_only(env_
     ids=["all rows", "all rows reversed", "some rows", "some rows out of order"],
 )
 def test_restart_starts_the_next_episodes_of_its_rows_as_start_and_observe_do(env_id: str, rows: np.ndarray) -> None:
-    """Tasks override ``restart`` with one kernel; it must equal the base class's (advance, start, observe), and
-    leave the other rows alone."""
+    """Tasks restart by one kernel (``restart_call``); it must equal ``restart_by_parts`` (advance, start, observe),
+    and leave the other rows alone."""
     vec = gym.make_vec(env_id, num_envs=12, vectorization_mode="vector_entry_point")
     vec.reset(seed=6)
     for _ in range(3):
@@ -231,7 +231,7 @@ def test_restart_starts_the_next_episodes_of_its_rows_as_start_and_observe_do(en
     fused, default = copy.deepcopy(before), copy.deepcopy(before)
     fused_obs, default_obs = (np.full((12, *task.observation_space.shape), -7.0, np.float32) for _ in range(2))
     task.restart(fused, rows, fused_obs)
-    base.Task.restart(task, default, rows, default_obs)
+    task.restart_by_parts(default, rows, default_obs)
     others = np.setdiff1d(np.arange(12), rows)
     assert (fused["key"][rows] != before["key"][rows]).all()
     assert fused.keys() == default.keys()

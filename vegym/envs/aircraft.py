@@ -10,7 +10,7 @@ from gymnasium import spaces
 from numba import njit
 
 from vegym import rng
-from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
+from vegym.envs.base import Info, KernelCall, State, Task, VegymEnv, VegymVectorEnv
 from vegym.envs.schedule import ScheduledParams
 from vegym.params import Params, invalid, param
 from vegym.physics import aircraft, vmath
@@ -351,19 +351,21 @@ class AircraftTask(Task[AircraftEnvParams]):
             "success": ((), np.bool_),
         }
 
-    def step(self, state: State, action: np.ndarray, out: State) -> None:
-        due = _step_kernel(
+    def step_call(self, state: State, action: np.ndarray, out: State) -> KernelCall:
+        return _step_kernel, (
             action, state["key"], state["step"], state["position"], state["speed"], state["heading"],
             state["command"], state["vertical_speed"], state["draft"], state["demand"], state["last_change"],
             state["next_change"], self._constants, self._gust_offset, out["demand"], out["errors"],
             out["terms"], out["reward"], out["success"], out["terminated"], out["obs"],
         )  # fmt: skip
-        if due:  # a demand changes at the new step: advance the schedule, then observe the new demands
-            changed = self.schedule.advance(state, state["step"] + 1, "demand", self.draw_demand)
-            _observe_kernel(
-                changed, state["step"], 1, state["position"], state["speed"], state["heading"], state["command"],
-                state["vertical_speed"], state["demand"], state["last_change"], self._constants, out["obs"],
-            )  # fmt: skip
+
+    def after_step(self, state: State, out: State) -> None:
+        """A demand changes at the new step: advance the schedule, then observe the new demands."""
+        changed = self.schedule.advance(state, state["step"] + 1, "demand", self.draw_demand)
+        _observe_kernel(
+            changed, state["step"], 1, state["position"], state["speed"], state["heading"], state["command"],
+            state["vertical_speed"], state["demand"], state["last_change"], self._constants, out["obs"],
+        )  # fmt: skip
 
     def info(self, state: State, out: State) -> Info:
         return {

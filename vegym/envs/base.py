@@ -13,6 +13,7 @@ follows exactly the single env reset with ``seed=s + i``, step for step, whateve
 from __future__ import annotations
 
 import abc
+import functools
 import importlib
 import itertools
 import os
@@ -26,6 +27,7 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 from numba import njit
+from numba.core.dispatcher import Dispatcher
 
 from vegym import rng
 from vegym.params import Params
@@ -33,6 +35,8 @@ from vegym.params import Params
 P = TypeVar("P", bound=Params)
 State = dict[str, np.ndarray]
 Info = dict[str, Any]
+KernelCall = tuple[Callable[..., Any], tuple[Any, ...]]
+"""A kernel and its arguments: ``kernel(*args)`` does the work."""
 
 ACTION_TOLERANCE = 1e-6
 """Actions may exceed [-1, 1] by this much (float32 round-off) and are then clipped; more is an error."""
@@ -83,11 +87,26 @@ class Task(abc.ABC, Generic[P]):
         """Start the next episode of the episodes ``rows`` (distinct int indices) of ``state``, in place: their
         ``key`` advanced to :func:`rng.next_key` of itself, the episodes started and observed into those rows of
         ``obs`` (their ``step`` is the front end's, zero already). A single env's reset without a seed and the
-        vector env's autoreset run it; tasks override it with one kernel."""
+        vector env's autoreset run it: by :meth:`restart_call`'s kernel where there is one."""
+        call = self.restart_call(state, rows, obs)
+        if call is None:
+            self.restart_by_parts(state, rows, obs)
+        else:
+            kernel, args = call
+            kernel(*args)
+
+    def restart_by_parts(self, state: State, rows: np.ndarray, obs: np.ndarray) -> None:
+        """:meth:`restart` by numpy gathers and :meth:`start`: the reference that restart kernels are tested
+        against."""
         keys = rng.next_key(state["key"][rows])
         self.start(state, keys, rows)
         state["key"][rows] = keys
         self.observe_rows(state, rows, obs)
+
+    def restart_call(self, state: State, rows: np.ndarray, obs: np.ndarray) -> KernelCall | None:
+        """The one kernel call that does :meth:`restart`'s work for these arguments, or None (then
+        :meth:`restart_by_parts` does it). Tasks whose episodes restart often (short episodes) return one."""
+        return None
 
     @abc.abstractmethod
     def output_shapes(self) -> dict[str, tuple[tuple[int, ...], type]]:
@@ -105,12 +124,22 @@ class Task(abc.ABC, Generic[P]):
             out[name] = np.empty((n, *shape), dtype)
         return out
 
-    @abc.abstractmethod
     def step(self, state: State, action: np.ndarray, out: State) -> None:
         """Advance every episode of ``state`` in place by one step with actions (n, action_dim) in [-1, 1],
-        writing the results and the next observations into the arrays of ``out`` (from :meth:`outputs`).
-        ``out["obs"]`` must show the state after all of the step, including any update made after the kernel
-        (a demand schedule's, say: those rows are observed again)."""
+        writing the results and the next observations into the arrays of ``out`` (from :meth:`outputs`): the
+        kernel of :meth:`step_call`, then :meth:`after_step` if the kernel returned true."""
+        kernel, args = self.step_call(state, action, out)
+        if kernel(*args):
+            self.after_step(state, out)
+
+    @abc.abstractmethod
+    def step_call(self, state: State, action: np.ndarray, out: State) -> KernelCall:
+        """The kernel call that does :meth:`step`'s work on these arrays; the kernel returns true when
+        :meth:`after_step` must follow. The single env binds it once to its own arrays (:func:`bind_kernel`)."""
+
+    def after_step(self, state: State, out: State) -> None:
+        """Work after a step whose kernel returned true, such as a demand schedule's change (those rows are then
+        observed again: ``out["obs"]`` must show the state after all of the step)."""
 
     @abc.abstractmethod
     def info(self, state: State, out: State) -> Info:
@@ -259,6 +288,15 @@ class ActionLoader:
         return check_actions(action, self.target)  # other arrays, and the errors
 
 
+def bind_kernel(kernel: Callable[..., Any], args: tuple[Any, ...]) -> Callable[[], Any]:
+    """``kernel(*args)`` as a function of no arguments. For a numba kernel (a dispatcher) it calls the compiled
+    code for these arguments' types directly, skipping the dispatcher's type matching on every call (about 40 ns
+    per argument): the arguments must keep their types and stay the same objects, as a single env's arrays do."""
+    if isinstance(kernel, Dispatcher):
+        kernel = kernel.compile(tuple(kernel.typeof_pyval(arg) for arg in args))
+    return functools.partial(kernel, *args)
+
+
 def load_object(path: str) -> Any:
     """Import ``"package.module:Name"``."""
     module, name = path.split(":")
@@ -334,46 +372,58 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
         self.state: State | None = None
         self._load_action = ActionLoader(1, self.action_space.shape)
         self._out = self.task.outputs(1)
-        self._read_info: Callable[[], Info] | None = None
         self._renderer: Any = None
         self._window: Any = None
 
+    def _bind(self) -> None:
+        """Bind the per-step work to this env's arrays, once they exist (first reset, unpickling): the task's kernel
+        calls (:func:`bind_kernel`), the info reader and readers of the outputs' row 0."""
+        state, out = self.state, self._out
+        assert state is not None
+        self._run_step = bind_kernel(*self.task.step_call(state, self._load_action.target, out))
+        restart = self.task.restart_call(state, _ROW_0, out["obs"])
+        self._restart = bind_kernel(*(restart or (self.task.restart_by_parts, (state, _ROW_0, out["obs"]))))
+        self._read_info = row_reader(self.task.info(state, out))
+        self._read_obs = out["obs"][0].copy
+        self._read_reward = out["reward"][:1].item
+        self._read_terminated = out["terminated"][:1].item
+        self._read_step = state["step"][:1].item
+
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, Info]:
         super().reset(seed=seed)
-        obs = self._out["obs"]
         if self.state is not None and seed is None:
             self.state["step"][0] = 0
-            self.task.restart(self.state, _ROW_0, obs)
+            self._restart()
         else:
             if self.state is None:
                 key = rng.seed_keys([seed]) if seed is not None else self.np_random.integers(0, 2**64, 1, np.uint64)
                 self.state = owned({**self.task.initial_state(key), "key": key, "step": np.zeros(1, dtype=np.int64)})
-                self._read_info = row_reader(self.task.info(self.state, self._out))
+                self._bind()
             else:
                 key = self.state["key"]
                 key[:] = rng.seed_keys(np.array([seed]))
                 self.task.start(self.state, key, _ROW_0)
                 self.state["step"][0] = 0
-            self.task.observe(self.state, obs)
+            self.task.observe(self.state, self._out["obs"])
         if self.render_mode is not None:
             self._get_renderer().reset(self._snapshot())
             if self.render_mode == "human":
                 self.render()
-        return obs[0].copy(), {}
+        return self._read_obs(), {}
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, Info]:
         if self.state is None:
             raise gym.error.ResetNeeded("Call reset() before step().")
-        out = self._out
-        self.task.step(self.state, self._load_action(action), out)
-        step = self.state["step"]
-        step[0] = step.item(0) + 1
-        info = self._read_info()  # type: ignore[misc]
+        self._load_action(action)
+        if self._run_step():
+            self.task.after_step(self.state, self._out)
+        self.state["step"][0] = self._read_step() + 1
+        info = self._read_info()
         if self.render_mode is not None:
             self._get_renderer().record(self._snapshot(), info)
             if self.render_mode == "human":
                 self.render()
-        return out["obs"][0].copy(), out["reward"].item(0), out["terminated"].item(0), False, info
+        return self._read_obs(), self._read_reward(), self._read_terminated(), False, info
 
     def _snapshot(self) -> State:
         """A copy of the state for the renderer to keep (the env updates its own in place)."""
@@ -405,16 +455,18 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
             self._window.close()
             self._window = None
 
+    _BOUND = ("_run_step", "_restart", "_read_info", "_read_obs", "_read_reward", "_read_terminated", "_read_step")
+    """What :meth:`_bind` sets: functions over this env's arrays, rebuilt over an unpickled copy's."""
+
     def __getstate__(self) -> dict[str, Any]:
-        state = self.__dict__.copy()
+        state = {name: value for name, value in self.__dict__.items() if name not in self._BOUND}
         state["_window"] = None
-        state["_read_info"] = None  # rebuilt over the unpickled arrays
         return state
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
-        if self.state is not None:  # the info views must point into this copy's arrays
-            self._read_info = row_reader(self.task.info(self.state, self._out))
+        if self.state is not None:
+            self._bind()
 
 
 MALLOC_MMAP_THRESHOLD_MAX = 32 << 20

@@ -10,7 +10,7 @@ from gymnasium import spaces
 from numba import njit
 
 from vegym import rng
-from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
+from vegym.envs.base import Info, KernelCall, State, Task, VegymEnv, VegymVectorEnv
 from vegym.params import Params, invalid, param
 from vegym.physics import collision, vmath
 from vegym.physics.columns import scratch
@@ -342,12 +342,18 @@ class BilliardsTask(Task[BilliardsParams]):
     def start(self, state: State, keys: np.ndarray, rows: np.ndarray) -> None:
         _start(keys, rows, self._constants, self._offset, state["ball_a"], state["ball_b"], state["target"])
 
-    def restart(self, state: State, rows: np.ndarray, obs: np.ndarray) -> None:
+    def restart_call(self, state: State, rows: np.ndarray, obs: np.ndarray) -> KernelCall | None:
         if len(rows) < len(obs):  # some rows (sub-envs that ended while others go on): observed by rows
-            super().restart(state, rows, obs)
-            return
-        _restart_kernel(
-            state["key"], rows, self._constants, self._offset, state["ball_a"], state["ball_b"], state["target"], obs
+            return None
+        return _restart_kernel, (
+            state["key"],
+            rows,
+            self._constants,
+            self._offset,
+            state["ball_a"],
+            state["ball_b"],
+            state["target"],
+            obs,
         )
 
     @staticmethod
@@ -367,8 +373,8 @@ class BilliardsTask(Task[BilliardsParams]):
             "flags": ((len(FLAG_COLUMNS),), np.bool_),
         }
 
-    def step(self, state: State, action: np.ndarray, out: State) -> None:
-        _step_kernel(
+    def step_call(self, state: State, action: np.ndarray, out: State) -> KernelCall:
+        return _step_kernel, (
             action, state["ball_a"], state["ball_b"], state["target"], self._constants, out["shot"], out["flags"],
             out["reward"], out["terminated"], out["obs"],
         )  # fmt: skip

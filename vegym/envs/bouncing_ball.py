@@ -9,7 +9,7 @@ from gymnasium import spaces
 from numba import njit
 
 from vegym import rng
-from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
+from vegym.envs.base import Info, KernelCall, State, Task, VegymEnv, VegymVectorEnv
 from vegym.params import Params, invalid, param
 from vegym.physics import particle
 from vegym.physics.columns import pairwise_sum, scratch
@@ -353,8 +353,8 @@ class BouncingBallTask(Task[BouncingBallParams]):
             self._offsets,
         )  # fmt: skip
 
-    def restart(self, state: State, rows: np.ndarray, obs: np.ndarray) -> None:
-        _restart_kernel(
+    def restart_call(self, state: State, rows: np.ndarray, obs: np.ndarray) -> KernelCall | None:
+        return _restart_kernel, (
             state["key"], rows, state["speed"], state["time"], state["targets"], state["error_sum"], self._constants,
             self._offsets, obs,
         )  # fmt: skip
@@ -369,8 +369,8 @@ class BouncingBallTask(Task[BouncingBallParams]):
             "success": ((), np.bool_),
         }
 
-    def step(self, state: State, action: np.ndarray, out: State) -> None:
-        _step_kernel(
+    def step_call(self, state: State, action: np.ndarray, out: State) -> KernelCall:
+        return _step_kernel, (
             action, state["speed"], state["time"], state["targets"], state["error_sum"], state["key"], state["step"],
             self._constants, self._offsets, out["impact_speed"], out["restitution"], out["apex_height"],
             out["target_height"], out["terms"], out["reward"], out["success"], out["terminated"], out["obs"],

@@ -9,7 +9,7 @@ from gymnasium import spaces
 from numba import njit
 
 from vegym import rng
-from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
+from vegym.envs.base import Info, KernelCall, State, Task, VegymEnv, VegymVectorEnv
 from vegym.params import Params, invalid, param
 from vegym.physics import vmath, wheel
 from vegym.physics.columns import scratch
@@ -252,8 +252,8 @@ class GearTrainTask(Task[GearTrainParams]):
             "success": ((), np.bool_),
         }
 
-    def step(self, state: State, action: np.ndarray, out: State) -> None:
-        _step_kernel(
+    def step_call(self, state: State, action: np.ndarray, out: State) -> KernelCall:
+        return _step_kernel, (
             action, state["key"], state["step"], state["speed"], state["radii"], state["angles"], state["gears"],
             state["ratio"], self._constants, self._interval_steps, self._target_offset, out["target"],
             out["output_speed"], out["output"], out["error"], out["terms"], out["reward"], out["success"],

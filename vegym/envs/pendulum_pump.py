@@ -10,7 +10,7 @@ from gymnasium import spaces
 from numba import njit
 
 from vegym import rng
-from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
+from vegym.envs.base import Info, KernelCall, State, Task, VegymEnv, VegymVectorEnv
 from vegym.envs.schedule import ScheduledParams
 from vegym.params import Params, invalid, param
 from vegym.physics import pendulum, vmath
@@ -242,19 +242,18 @@ class PendulumPumpTask(Task[PendulumPumpParams]):
             "success": ((), np.bool_),
         }
 
-    def step(self, state: State, action: np.ndarray, out: State) -> None:
-        if _step_kernel(
+    def step_call(self, state: State, action: np.ndarray, out: State) -> KernelCall:
+        return _step_kernel, (
             action, state["theta"], state["omega"], state["target"], state["next_change"], state["step"],
             self._constants, out["torque"], out["energy"], out["amplitude"], out["target_amplitude"],
             out["target_energy"], out["terms"], out["reward"], out["success"], out["terminated"], out["obs"],
-        ):  # fmt: skip
-            self._change_targets(state, out["obs"])
+        )  # fmt: skip
 
-    def _change_targets(self, state: State, obs: np.ndarray) -> None:
+    def after_step(self, state: State, out: State) -> None:
         """Hand out the new targets due at this step (``state["step"]`` not yet counted), in place, and observe the
         episodes that changed again."""
         changed = self.schedule.advance(state, state["step"] + 1, "target", self.draw_target)
-        _observe_kernel(changed, state["theta"], state["omega"], state["target"], self._constants, obs)
+        _observe_kernel(changed, state["theta"], state["omega"], state["target"], self._constants, out["obs"])
 
     def info(self, state: State, out: State) -> Info:
         return {

@@ -10,7 +10,7 @@ from gymnasium import spaces
 from numba import njit
 
 from vegym import rng
-from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
+from vegym.envs.base import Info, KernelCall, State, Task, VegymEnv, VegymVectorEnv
 from vegym.params import Params, invalid, param
 from vegym.physics import projectile, vmath
 from vegym.physics.columns import scratch
@@ -310,11 +310,10 @@ class ProjectileTask(Task[ProjectileEnvParams]):
             state["bearing"], state["landing_point"],
         )  # fmt: skip
 
-    def restart(self, state: State, rows: np.ndarray, obs: np.ndarray) -> None:
+    def restart_call(self, state: State, rows: np.ndarray, obs: np.ndarray) -> KernelCall | None:
         if len(rows) < len(obs):  # some rows (sub-envs that ended while others go on): observed by rows
-            super().restart(state, rows, obs)
-            return
-        _restart_kernel(
+            return None
+        return _restart_kernel, (
             state["key"], rows, self._constants, self._offset, state["launch_position"], state["target"],
             state["wind"], state["bearing"], state["landing_point"], obs,
         )  # fmt: skip
@@ -344,8 +343,8 @@ class ProjectileTask(Task[ProjectileEnvParams]):
     def output_shapes(self) -> dict[str, tuple[tuple[int, ...], type]]:
         return {"shot": ((len(SHOT_COLUMNS),), np.float64), "success": ((), np.bool_)}
 
-    def step(self, state: State, action: np.ndarray, out: State) -> None:
-        _step_kernel(
+    def step_call(self, state: State, action: np.ndarray, out: State) -> KernelCall:
+        return _step_kernel, (
             action, state["launch_position"], state["target"], state["wind"], state["bearing"],
             state["landing_point"], self._constants, out["shot"], out["success"], out["reward"], out["terminated"],
             out["obs"],

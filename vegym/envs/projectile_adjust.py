@@ -10,7 +10,7 @@ from gymnasium import spaces
 from numba import njit
 
 from vegym import rng
-from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
+from vegym.envs.base import Info, KernelCall, State, Task, VegymEnv, VegymVectorEnv
 from vegym.envs.projectile import AZIMUTH_LIMIT, ELEVATION_LIMIT, ProjectileEnvParams, ProjectileTask, _shoot, _start
 from vegym.envs.projectile import SHOT_COLUMNS as PROJECTILE_SHOT_COLUMNS
 from vegym.params import invalid, param
@@ -236,8 +236,8 @@ class ProjectileAdjustTask(Task[ProjectileAdjustParams]):
         self.shot.start(state, keys, rows)
         _clear(rows, state["misses"], state["actions"], state["shots"])
 
-    def restart(self, state: State, rows: np.ndarray, obs: np.ndarray) -> None:
-        _restart_kernel(
+    def restart_call(self, state: State, rows: np.ndarray, obs: np.ndarray) -> KernelCall | None:
+        return _restart_kernel, (
             state["key"], rows, self._shot_constants, self.shot._offset, state["launch_position"], state["target"],
             state["wind"], state["bearing"], state["landing_point"], state["misses"], state["actions"], state["shots"],
             self._constants, obs,
@@ -246,8 +246,8 @@ class ProjectileAdjustTask(Task[ProjectileAdjustParams]):
     def output_shapes(self) -> dict[str, tuple[tuple[int, ...], type]]:
         return {"shot": ((len(SHOT_COLUMNS),), np.float64), "success": ((), np.bool_)}
 
-    def step(self, state: State, action: np.ndarray, out: State) -> None:
-        _step_kernel(
+    def step_call(self, state: State, action: np.ndarray, out: State) -> KernelCall:
+        return _step_kernel, (
             action, state["launch_position"], state["target"], state["wind"], state["bearing"],
             state["landing_point"], state["misses"], state["actions"], state["shots"], self._shot_constants,
             self._constants, out["shot"], out["success"], out["reward"], out["terminated"], out["obs"],

@@ -10,7 +10,7 @@ from gymnasium import spaces
 from numba import njit
 
 from vegym import rng
-from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
+from vegym.envs.base import Info, KernelCall, State, Task, VegymEnv, VegymVectorEnv
 from vegym.params import Params, invalid, param
 from vegym.physics import vmath, wheel
 from vegym.physics.columns import scratch
@@ -328,8 +328,8 @@ class SteerableWheelTask(Task[SteerableWheelParams]):
             state["heading"], state["roll"], state["speed"], state["waypoints"], state["index"],
         )  # fmt: skip
 
-    def restart(self, state: State, rows: np.ndarray, obs: np.ndarray) -> None:
-        _restart_kernel(
+    def restart_call(self, state: State, rows: np.ndarray, obs: np.ndarray) -> KernelCall | None:
+        return _restart_kernel, (
             state["key"], rows, self._setup_offset, self.params.half_size - self.params.waypoint_margin,
             state["position"], state["heading"], state["roll"], state["speed"], state["waypoints"], state["index"],
             self._constants, obs,
@@ -338,8 +338,8 @@ class SteerableWheelTask(Task[SteerableWheelParams]):
     def output_shapes(self) -> dict[str, tuple[tuple[int, ...], type]]:
         return {"steer": ((), np.float64), "terms": ((len(REWARD_TERMS),), np.float64), "success": ((), np.bool_)}
 
-    def step(self, state: State, action: np.ndarray, out: State) -> None:
-        _step_kernel(
+    def step_call(self, state: State, action: np.ndarray, out: State) -> KernelCall:
+        return _step_kernel, (
             action, state["position"], state["heading"], state["roll"], state["speed"], state["waypoints"],
             state["index"], self._constants, out["steer"], out["terms"], out["reward"], out["success"],
             out["terminated"], out["obs"],

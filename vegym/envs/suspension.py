@@ -10,7 +10,7 @@ from gymnasium import spaces
 from numba import njit
 
 from vegym import rng
-from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
+from vegym.envs.base import Info, KernelCall, State, Task, VegymEnv, VegymVectorEnv
 from vegym.params import Params, invalid, param
 from vegym.physics import suspension
 from vegym.physics.particle import STANDARD_GRAVITY
@@ -227,8 +227,8 @@ class SuspensionTask(Task[SuspensionParams]):
             "success": ((), np.bool_),
         }
 
-    def step(self, state: State, action: np.ndarray, out: State) -> None:
-        _step_kernel(
+    def step_call(self, state: State, action: np.ndarray, out: State) -> KernelCall:
+        return _step_kernel, (
             action, state["height"], state["velocity"], state["base"], state["base_velocity"], state["distance"],
             state["acceleration"], state["squared_acceleration"], state["step"], state["amplitude"],
             state["wavenumber"], state["phase"], state["offset"], self._constants, out["measures"], out["terms"],

@@ -9,7 +9,7 @@ from gymnasium import spaces
 from numba import njit
 
 from vegym import rng
-from vegym.envs.base import Info, State, Task, VegymEnv, VegymVectorEnv
+from vegym.envs.base import Info, KernelCall, State, Task, VegymEnv, VegymVectorEnv
 from vegym.params import Params, invalid, param
 from vegym.physics import thread
 from vegym.physics.particle import STANDARD_GRAVITY
@@ -257,8 +257,8 @@ class ThreadTask(Task[ThreadEnvParams]):
             "success": ((), np.bool_),
         }
 
-    def step(self, state: State, action: np.ndarray, out: State) -> None:
-        _step_kernel(
+    def step_call(self, state: State, action: np.ndarray, out: State) -> KernelCall:
+        return _step_kernel, (
             action, state["positions"], state["velocities"], state["initial_excess"], state["excess"],
             self.actuated, self.substeps, self.rest_energy, self.equilibrium, self._constants,
             self._physics_constants, out["forces"], out["energy"], out["fraction"], out["terms"], out["reward"],
