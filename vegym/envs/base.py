@@ -13,7 +13,6 @@ follows exactly the single env reset with ``seed=s + i``, step for step, whateve
 from __future__ import annotations
 
 import abc
-import functools
 import importlib
 import itertools
 import os
@@ -27,9 +26,9 @@ from gymnasium import spaces
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 from numba import njit
-from numba.core.dispatcher import Dispatcher
 
 from vegym import rng
+from vegym.envs.kernel_call import bind_kernel
 from vegym.params import Params
 
 P = TypeVar("P", bound=Params)
@@ -288,15 +287,6 @@ class ActionLoader:
         return check_actions(action, self.target)  # other arrays, and the errors
 
 
-def bind_kernel(kernel: Callable[..., Any], args: tuple[Any, ...]) -> Callable[[], Any]:
-    """``kernel(*args)`` as a function of no arguments. For a numba kernel (a dispatcher) it calls the compiled
-    code for these arguments' types directly, skipping the dispatcher's type matching on every call (about 40 ns
-    per argument): the arguments must keep their types and stay the same objects, as a single env's arrays do."""
-    if isinstance(kernel, Dispatcher):
-        kernel = kernel.compile(tuple(kernel.typeof_pyval(arg) for arg in args))
-    return functools.partial(kernel, *args)
-
-
 def load_object(path: str) -> Any:
     """Import ``"package.module:Name"``."""
     module, name = path.split(":")
@@ -354,7 +344,8 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
     Subclasses set ``task_cls`` and a docstring; ``__init__(render_mode=None, **params)`` builds the frozen
     parameter dataclass, so every keyword lands in ``spec.kwargs`` and an unknown one raises ``TypeError``.
     The state arrays are allocated at the first reset, the action and output arrays in ``__init__``, and all are
-    reused; what ``step`` and ``reset`` return are fresh copies.
+    reused (the task's kernels are bound to them then: replace none of ``env.state``'s arrays, update them in
+    place); what ``step`` and ``reset`` return are fresh copies.
     """
 
     task_cls: ClassVar[type[Task]]

@@ -1,0 +1,59 @@
+"""The single env's bound kernel calls: the packed shim must do exactly what the kernel called directly does."""
+
+import gc
+
+import numpy as np
+from numba import njit
+
+from vegym.envs.kernel_call import bind_kernel
+
+
+@njit(cache=True)
+def _mixed_kernel(
+    table: np.ndarray, flags: np.ndarray, constants: np.ndarray, scale: float, pair: tuple, count: int, out: np.ndarray
+) -> float:
+    """Writes ``out`` (n, 2) from arrays of three dtypes, a read-only one, a float, a tuple and an int."""
+    total = 0.0
+    for i in range(table.shape[0]):
+        for k in range(2):
+            out[i, k] = table[i, k] * scale + constants[k] * pair[k] + count * flags[i]
+            total += out[i, k]
+        table[i, 0] += 1.0
+    return total
+
+
+def _arguments() -> tuple:
+    rng = np.random.default_rng(5)
+    constants = rng.normal(size=2)
+    constants.flags.writeable = False
+    return rng.normal(size=(3, 2)), np.array([True, False, True]), constants, 0.5, (2.0, -3.0), 7, np.empty((3, 2))
+
+
+def test_bound_kernel_writes_and_returns_what_the_direct_call_does() -> None:
+    direct, bound_args = _arguments(), _arguments()
+    bound = bind_kernel(_mixed_kernel, bound_args)
+    assert hasattr(bound, "arrays"), "these arguments take the packed shim"
+    for _ in range(3):  # the bound call sees each call's changes (table[:, 0] grows)
+        assert bound() == _mixed_kernel(*direct)
+        for got, want in zip(bound_args, direct, strict=True):
+            np.testing.assert_array_equal(got, want)
+
+
+def test_bound_kernel_keeps_its_arrays_alive() -> None:
+    args = _arguments()
+    expected = _mixed_kernel(*_arguments())
+    bound = bind_kernel(_mixed_kernel, args)
+    out = args[-1]
+    del args
+    gc.collect()
+    assert bound() == expected
+    np.testing.assert_array_equal(bound.arrays[-1], out)
+
+
+def test_kernels_with_arguments_the_shim_cannot_take_are_called_directly() -> None:
+    direct, bound_args = _arguments(), _arguments()
+    strided = np.asfortranarray(bound_args[0])
+    bound = bind_kernel(_mixed_kernel, (strided, *bound_args[1:]))
+    assert not hasattr(bound, "arrays")
+    assert bound() == _mixed_kernel(*direct)
+    np.testing.assert_array_equal(strided, direct[0])

@@ -1,0 +1,138 @@
+"""A kernel call bound once to fixed arrays, for the single env's steps: numba's per-call argument handling left out.
+
+Calling a numba kernel from Python costs about 40 ns per argument for the dispatcher's type matching and 60-90 ns
+per array for unboxing it (a reference-counted wrapper made and released around every call); a single env's step
+kernel takes 10-21 arrays, so that was 1-2 us of a 5-10 us step. :func:`bind_kernel` instead hands the compiled
+code one table of the arrays' addresses and shapes, from which a generated shim rebuilds the arrays inside numba
+(``numba.carray``) and calls the kernel. The shim is specialised on a literal string naming the kernel, a hash of
+its module's source and its argument layout, so numba caches it on disk like the kernels themselves; a changed
+kernel module gets a new one. The bound function keeps the arrays alive.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import importlib
+import inspect
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+from numba import carray, literally, njit, types
+from numba.core import cgutils
+from numba.core.dispatcher import Dispatcher
+from numba.core.extending import intrinsic, overload
+from numba.core.imputils import impl_ret_borrowed
+
+
+@intrinsic
+def _read_only(typingctx: Any, array: types.Array) -> tuple[types.Signature, Callable[..., Any]]:
+    """The same array typed read-only (the type a read-only numpy argument has: the kernel's compiled one)."""
+
+    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+        return impl_ret_borrowed(context, builder, signature.return_type, args[0])
+
+    return array.copy(readonly=True)(array), codegen
+
+
+@intrinsic
+def _pointer(typingctx: Any, address: types.Type) -> tuple[types.Signature, Callable[..., Any]]:
+    """The address (intp) as a ``void*``, for ``numba.carray``."""
+
+    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
+        return builder.inttoptr(args[0], cgutils.voidptr_t)
+
+    return types.voidptr(types.intp), codegen
+
+
+def _call_with_layout(table: np.ndarray, scalars: tuple[Any, ...], layout: str) -> Any:
+    """Numba-only: call the kernel that ``layout`` names with arrays rebuilt from ``table``."""
+    raise NotImplementedError("only callable inside numba-compiled code")
+
+
+@overload(_call_with_layout)
+def _call_with_layout_impl(table, scalars, layout):  # noqa: ANN001, ANN202  (numba matches these names to the shim's)
+    """The shim for one layout ``"module:kernel|source hash|field|..."``, a field being ``"s"`` (the next of
+    ``scalars``) or ``"dtype:ndim:w"`` (the next array, ``r`` for read-only: its address, then its shape, in
+    ``table``)."""
+    if not isinstance(layout, types.StringLiteral):
+        return None
+    target, _, *fields = layout.literal_value.split("|")
+    module, name = target.split(":")
+    namespace = {
+        "kernel": getattr(importlib.import_module(module), name),
+        "carray": carray,
+        "_pointer": _pointer,
+        "_read_only": _read_only,
+    }
+    args, position, scalar = [], 0, 0
+    for k, field in enumerate(fields):
+        if field == "s":
+            args.append(f"scalars[{scalar}]")
+            scalar += 1
+            continue
+        dtype, ndim, access = field.split(":")
+        namespace[f"dtype_{k}"] = np.dtype(dtype).type
+        shape = "".join(f"table[{position + 1 + d}], " for d in range(int(ndim)))
+        array = f"carray(_pointer(table[{position}]), ({shape}), dtype_{k})"
+        args.append(array if access == "w" else f"_read_only({array})")
+        position += 1 + int(ndim)
+    exec(f"def shim(table, scalars, layout):\n    return kernel({', '.join(args)})\n", namespace)  # noqa: S102
+    return namespace["shim"]
+
+
+@njit(cache=True, nogil=True)
+def _call_packed(table: np.ndarray, scalars: tuple[Any, ...], layout: str) -> Any:
+    return _call_with_layout(table, scalars, literally(layout))
+
+
+@functools.cache
+def _kernel_name(kernel: Dispatcher) -> str | None:
+    """``"module:name|source hash"`` of a kernel importable by that name from a module with a source file."""
+    module, name = kernel.py_func.__module__, kernel.py_func.__qualname__
+    try:
+        if getattr(importlib.import_module(module), name, None) is not kernel:
+            return None
+        source = inspect.getsource(importlib.import_module(module))
+    except (ImportError, OSError, TypeError):
+        return None
+    return f"{module}:{name}|{hashlib.sha256(source.encode()).hexdigest()[:16]}"
+
+
+def _packable(arg: Any) -> bool:
+    """Whether the shim can take ``arg``: an array (C-contiguous, aligned, of native numbers), a number or a tuple
+    of numbers."""
+    if isinstance(arg, np.ndarray):
+        flags = arg.flags
+        return arg.ndim > 0 and flags.c_contiguous and flags.aligned and arg.dtype.isnative and arg.dtype.kind in "biuf"
+    if isinstance(arg, tuple):
+        return all(_packable(item) and not isinstance(item, np.ndarray) for item in arg)
+    return isinstance(arg, bool | int | float | np.bool_ | np.integer | np.floating)
+
+
+def bind_kernel(kernel: Callable[..., Any], args: tuple[Any, ...]) -> Callable[[], Any]:
+    """``kernel(*args)`` as a function of no arguments, for arguments that stay the same objects with the same
+    contents' types and shapes (a single env's own arrays): a numba kernel (a dispatcher) whose arguments are
+    C-contiguous arrays, numbers and tuples of numbers is called through the packed shim (first use of a kernel
+    layout: compiled, then cached), other calls as they are."""
+    name = _kernel_name(kernel) if isinstance(kernel, Dispatcher) else None
+    if name is None or not all(_packable(arg) for arg in args):
+        return functools.partial(kernel, *args)
+    addresses: list[int] = []
+    scalars, fields = [], []
+    for arg in args:
+        if isinstance(arg, np.ndarray):
+            addresses += [arg.ctypes.data, *arg.shape]
+            fields.append(f"{arg.dtype.name}:{arg.ndim}:{'w' if arg.flags.writeable else 'r'}")
+        else:
+            scalars.append(arg)
+            fields.append("s")
+    layout = "|".join([name, *fields])
+    table, packed_scalars = np.array(addresses, np.intp), tuple(scalars)
+    compiled = _call_packed.compile(
+        (_call_packed.typeof_pyval(table), _call_packed.typeof_pyval(packed_scalars), types.literal(layout))
+    )
+    bound = functools.partial(compiled, table, packed_scalars, layout)
+    bound.arrays = args  # type: ignore[attr-defined]  # the table holds their addresses: keep them alive
+    return bound
