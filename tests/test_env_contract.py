@@ -89,6 +89,46 @@ def test_pickled_env_continues_identically(env_id: str) -> None:
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)
+def test_a_state_snapshot_put_back_replays_the_same_steps(env_id: str) -> None:
+    """A single env binds its kernels to its state's arrays; a new ``state`` dict must be bound in their place."""
+    env = gym.make(env_id)
+    actions = random_actions(env_id, 12, seed=3)
+
+    def play() -> list:
+        results = []
+        for action in actions[1:]:
+            results.append(env.step(action))
+            if results[-1][2] or results[-1][3]:
+                results.append(env.reset())
+        return results
+
+    env.reset(seed=4)
+    env.step(actions[0])
+    snapshot = copy.deepcopy(env.unwrapped.state)
+    first = play()
+    env.unwrapped.state = copy.deepcopy(snapshot)
+    assert_same(first, play())
+
+
+def test_an_interrupted_first_reset_leaves_the_env_usable(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Ctrl-C while the first reset binds (compiles) the kernels: the env has no state then, and resets later."""
+    env, reference = (gym.make("vegym/Projectile-v0").unwrapped for _ in range(2))
+
+    def interrupted(*args: object) -> None:
+        raise KeyboardInterrupt
+
+    with monkeypatch.context() as patch:
+        patch.setattr(base, "bind_kernel", interrupted)
+        with pytest.raises(KeyboardInterrupt):
+            env.reset(seed=2)
+    with pytest.raises(gym.error.ResetNeeded):
+        env.step(np.zeros(env.action_space.shape, np.float32))
+    assert_same(env.reset(seed=2), reference.reset(seed=2))
+    action = np.full(env.action_space.shape, 0.3, np.float32)
+    assert_same(env.step(action), reference.step(action))
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
 def test_observations_stay_finite_and_inside_the_space(env_id: str) -> None:
     env = gym.make_vec(env_id, num_envs=256, vectorization_mode="vector_entry_point")
     obs, _ = env.reset(seed=0)

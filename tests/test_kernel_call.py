@@ -3,8 +3,10 @@
 import gc
 
 import numpy as np
+import pytest
 from numba import njit
 
+from vegym.envs import kernel_call
 from vegym.envs.kernel_call import bind_kernel
 
 
@@ -57,3 +59,30 @@ def test_kernels_with_arguments_the_shim_cannot_take_are_called_directly() -> No
     assert not hasattr(bound, "arrays")
     assert bound() == _mixed_kernel(*direct)
     np.testing.assert_array_equal(strided, direct[0])
+
+
+@njit(cache=True)
+def _scaled_in_place(values: np.ndarray, factor: float) -> np.ndarray:
+    values *= factor
+    return values
+
+
+def test_kernels_returning_arrays_are_called_directly() -> None:
+    """Through the shim a returned argument would be a view of memory the bound function owns, without a base."""
+    values = np.arange(3.0)
+    bound = bind_kernel(_scaled_in_place, (values, 2.0))
+    assert not hasattr(bound, "arrays")
+    assert bound() is values
+    np.testing.assert_array_equal(values, [0.0, 2.0, 4.0])
+
+
+def test_a_shim_compiled_for_another_layout_is_not_used(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Processes saving shims at once could leave a cache entry with another layout's code: compile's result must
+    be the overload registered for this layout, else the kernel is called directly."""
+    table, flags, constants, scale, pair, count, out = _arguments()
+    other = bind_kernel(_mixed_kernel, (table, flags, constants, scale, pair, float(count), out))  # a float count
+    monkeypatch.setattr(kernel_call._call_packed, "compile", lambda signature: other.func)
+    direct, bound_args = _arguments(), _arguments()
+    bound = bind_kernel(_mixed_kernel, bound_args)
+    assert not hasattr(bound, "arrays")
+    assert bound() == _mixed_kernel(*direct)

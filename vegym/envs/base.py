@@ -51,9 +51,9 @@ class Task(abc.ABC, Generic[P]):
 
     Subclasses set ``params_cls``, build ``observation_space`` and ``action_space`` (single-env spaces) in
     ``__init__``, and implement the methods below. ``state`` dicts always carry ``key`` (uint64 episode keys)
-    and ``step`` (steps taken in the episode), maintained by the front ends. ``step``, ``observe``, ``start`` and
-    ``restart`` must work on any row slice of the state (the vector env hands them chunks of its arrays,
-    concurrently).
+    and ``step`` (steps taken in the episode), maintained by the front ends. ``step_call``, ``after_step``,
+    ``observe``, ``start`` and ``restart_call`` must work on any row slice of the state (the vector env hands them
+    chunks of its arrays, concurrently).
     """
 
     params_cls: ClassVar[type[Params]]
@@ -104,7 +104,8 @@ class Task(abc.ABC, Generic[P]):
 
     def restart_call(self, state: State, rows: np.ndarray, obs: np.ndarray) -> KernelCall | None:
         """The one kernel call that does :meth:`restart`'s work for these arguments, or None (then
-        :meth:`restart_by_parts` does it). Tasks whose episodes restart often (short episodes) return one."""
+        :meth:`restart_by_parts` does it). Tasks whose episodes restart often (short episodes) return one; the
+        single env binds it once, as :meth:`step_call`'s."""
         return None
 
     @abc.abstractmethod
@@ -134,7 +135,9 @@ class Task(abc.ABC, Generic[P]):
     @abc.abstractmethod
     def step_call(self, state: State, action: np.ndarray, out: State) -> KernelCall:
         """The kernel call that does :meth:`step`'s work on these arrays; the kernel returns true when
-        :meth:`after_step` must follow. The single env binds it once to its own arrays (:func:`bind_kernel`)."""
+        :meth:`after_step` must follow. The single env binds it once to its own arrays (:func:`bind_kernel`), so its
+        arguments must be those arrays (``state``'s, ``action``, ``out``'s, the task's own) and constants, never
+        values computed from the state."""
 
     def after_step(self, state: State, out: State) -> None:
         """Work after a step whose kernel returned true, such as a demand schedule's change (those rows are then
@@ -344,8 +347,9 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
     Subclasses set ``task_cls`` and a docstring; ``__init__(render_mode=None, **params)`` builds the frozen
     parameter dataclass, so every keyword lands in ``spec.kwargs`` and an unknown one raises ``TypeError``.
     The state arrays are allocated at the first reset, the action and output arrays in ``__init__``, and all are
-    reused (the task's kernels are bound to them then: replace none of ``env.state``'s arrays, update them in
-    place); what ``step`` and ``reset`` return are fresh copies.
+    reused, the task's kernels bound to them (a new ``env.state`` dict, a snapshot put back say, is bound at the
+    next step or reset; an array replaced inside the dict is not seen: update arrays in place); what ``step`` and
+    ``reset`` return are fresh copies.
     """
 
     task_cls: ClassVar[type[Task]]
@@ -361,16 +365,17 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
         self.observation_space = self.task.observation_space
         self.action_space = self.task.action_space
         self.state: State | None = None
+        self._bound_state: State | None = None
         self._load_action = ActionLoader(1, self.action_space.shape)
         self._out = self.task.outputs(1)
         self._renderer: Any = None
         self._window: Any = None
 
-    def _bind(self) -> None:
-        """Bind the per-step work to this env's arrays, once they exist (first reset, unpickling): the task's kernel
-        calls (:func:`bind_kernel`), the info reader and readers of the outputs' row 0."""
-        state, out = self.state, self._out
-        assert state is not None
+    def _bind(self, state: State) -> None:
+        """Make ``state`` the env's, with the per-step work bound to its arrays and the outputs: the task's kernel
+        calls (:func:`bind_kernel`), the info reader and readers of the outputs' row 0. At the first reset, on
+        unpickling, and when ``self.state`` was replaced by another dict."""
+        out = self._out
         self._run_step = bind_kernel(*self.task.step_call(state, self._load_action.target, out))
         restart = self.task.restart_call(state, _ROW_0, out["obs"])
         self._restart = bind_kernel(*(restart or (self.task.restart_by_parts, (state, _ROW_0, out["obs"]))))
@@ -379,23 +384,26 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
         self._read_reward = out["reward"][:1].item
         self._read_terminated = out["terminated"][:1].item
         self._read_step = state["step"][:1].item
+        self.state = self._bound_state = state
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, Info]:
         super().reset(seed=seed)
-        if self.state is not None and seed is None:
-            self.state["step"][0] = 0
-            self._restart()
-        else:
-            if self.state is None:
-                key = rng.seed_keys([seed]) if seed is not None else self.np_random.integers(0, 2**64, 1, np.uint64)
-                self.state = owned({**self.task.initial_state(key), "key": key, "step": np.zeros(1, dtype=np.int64)})
-                self._bind()
-            else:
-                key = self.state["key"]
-                key[:] = rng.seed_keys(np.array([seed]))
-                self.task.start(self.state, key, _ROW_0)
-                self.state["step"][0] = 0
+        state = self.state
+        if state is None:
+            key = rng.seed_keys([seed]) if seed is not None else self.np_random.integers(0, 2**64, 1, np.uint64)
+            self._bind(owned({**self.task.initial_state(key), "key": key, "step": np.zeros(1, dtype=np.int64)}))
             self.task.observe(self.state, self._out["obs"])
+        else:
+            if state is not self._bound_state:
+                self._bind(state)
+            if seed is None:
+                state["step"][0] = 0
+                self._restart()
+            else:
+                state["key"][:] = rng.seed_keys(np.array([seed]))
+                self.task.start(state, state["key"], _ROW_0)
+                state["step"][0] = 0
+                self.task.observe(state, self._out["obs"])
         if self.render_mode is not None:
             self._get_renderer().reset(self._snapshot())
             if self.render_mode == "human":
@@ -403,12 +411,15 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
         return self._read_obs(), {}
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, Info]:
-        if self.state is None:
-            raise gym.error.ResetNeeded("Call reset() before step().")
+        state = self.state
+        if state is None or state is not self._bound_state:
+            if state is None:
+                raise gym.error.ResetNeeded("Call reset() before step().")
+            self._bind(state)
         self._load_action(action)
         if self._run_step():
-            self.task.after_step(self.state, self._out)
-        self.state["step"][0] = self._read_step() + 1
+            self.task.after_step(state, self._out)
+        state["step"][0] = self._read_step() + 1
         info = self._read_info()
         if self.render_mode is not None:
             self._get_renderer().record(self._snapshot(), info)
@@ -446,7 +457,10 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
             self._window.close()
             self._window = None
 
-    _BOUND = ("_run_step", "_restart", "_read_info", "_read_obs", "_read_reward", "_read_terminated", "_read_step")
+    _BOUND = (
+        "_bound_state", "_run_step", "_restart", "_read_info", "_read_obs", "_read_reward", "_read_terminated",
+        "_read_step",
+    )  # fmt: skip
     """What :meth:`_bind` sets: functions over this env's arrays, rebuilt over an unpickled copy's."""
 
     def __getstate__(self) -> dict[str, Any]:
@@ -456,8 +470,9 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
+        self._bound_state = None
         if self.state is not None:
-            self._bind()
+            self._bind(self.state)
 
 
 MALLOC_MMAP_THRESHOLD_MAX = 32 << 20

@@ -4,18 +4,21 @@ Calling a numba kernel from Python costs about 40 ns per argument for the dispat
 per array for unboxing it (a reference-counted wrapper made and released around every call); a single env's step
 kernel takes 10-21 arrays, so that was 1-2 us of a 5-10 us step. :func:`bind_kernel` instead hands the compiled
 code one table of the arrays' addresses and shapes, from which a generated shim rebuilds the arrays inside numba
-(``numba.carray``) and calls the kernel. The shim is specialised on a literal string naming the kernel, a hash of
-its module's source and its argument layout, so numba caches it on disk like the kernels themselves; a changed
-kernel module gets a new one. The bound function keeps the arrays alive.
+(``numba.carray``) and calls the kernel. The shim is specialised on a literal string naming the kernel, numba's
+stamp of its module's source and its argument layout, so numba caches it on disk like the kernels themselves, and
+a changed kernel module gets a new one (a changed helper in another module does not, as with numba's own cache of
+the kernel: clear ``__pycache__``). The bound function keeps the arrays alive.
 """
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import hashlib
 import importlib
-import inspect
-from collections.abc import Callable
+import os
+import tempfile
+from collections.abc import Callable, Iterator
 from typing import Any
 
 import numpy as np
@@ -89,15 +92,40 @@ def _call_packed(table: np.ndarray, scalars: tuple[Any, ...], layout: str) -> An
 
 @functools.cache
 def _kernel_name(kernel: Dispatcher) -> str | None:
-    """``"module:name|source hash"`` of a kernel importable by that name from a module with a source file."""
+    """``"module:name|source stamp"`` of a kernel importable by that name and cached by numba on disk, the stamp
+    being a digest of numba's own (its hash of the module's source as imported: the code the shim links), else
+    None."""
     module, name = kernel.py_func.__module__, kernel.py_func.__qualname__
+    stamp = getattr(getattr(getattr(kernel, "_cache", None), "_cache_file", None), "_source_stamp", None)
     try:
-        if getattr(importlib.import_module(module), name, None) is not kernel:
+        if stamp is None or getattr(importlib.import_module(module), name, None) is not kernel:
             return None
-        source = inspect.getsource(importlib.import_module(module))
-    except (ImportError, OSError, TypeError):
+    except ImportError:
         return None
-    return f"{module}:{name}|{hashlib.sha256(source.encode()).hexdigest()[:16]}"
+    return f"{module}:{name}|{hashlib.sha256(repr(stamp).encode()).hexdigest()[:16]}"
+
+
+@contextlib.contextmanager
+def _compile_lock() -> Iterator[None]:
+    """Serialise compiling shims across processes: numba reads, changes and rewrites ``_call_packed``'s one cache
+    index without a lock, so two processes saving different layouts at once could pair one layout with the other's
+    code. A file lock where the platform has one (POSIX); elsewhere :func:`bind_kernel`'s check still holds."""
+    try:
+        import fcntl
+    except ImportError:
+        yield
+        return
+    user = os.getuid() if hasattr(os, "getuid") else 0
+    with open(os.path.join(tempfile.gettempdir(), f"vegym-kernel-call-{user}.lock"), "a") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            yield
+        finally:
+            fcntl.flock(lock, fcntl.LOCK_UN)
+
+
+_SCALAR_RESULTS = (types.NoneType, types.Boolean, types.Integer, types.Float)
+"""Kernel results the shim may return (an array would be a view of memory that the bound function owns)."""
 
 
 def _packable(arg: Any) -> bool:
@@ -130,9 +158,14 @@ def bind_kernel(kernel: Callable[..., Any], args: tuple[Any, ...]) -> Callable[[
             fields.append("s")
     layout = "|".join([name, *fields])
     table, packed_scalars = np.array(addresses, np.intp), tuple(scalars)
-    compiled = _call_packed.compile(
-        (_call_packed.typeof_pyval(table), _call_packed.typeof_pyval(packed_scalars), types.literal(layout))
-    )
+    signature = (_call_packed.typeof_pyval(table), _call_packed.typeof_pyval(packed_scalars), types.literal(layout))
+    with _compile_lock():
+        compiled = _call_packed.compile(signature)
+    overload = _call_packed.overloads.get(signature)
+    if overload is None or overload.entry_point is not compiled:  # a cache entry saved for another layout
+        return functools.partial(kernel, *args)
+    if not isinstance(overload.signature.return_type, _SCALAR_RESULTS):
+        return functools.partial(kernel, *args)
     bound = functools.partial(compiled, table, packed_scalars, layout)
     bound.arrays = args  # type: ignore[attr-defined]  # the table holds their addresses: keep them alive
     return bound
