@@ -77,12 +77,14 @@ def test_kernels_returning_arrays_are_called_directly() -> None:
 
 
 def test_a_shim_compiled_for_another_layout_is_not_used(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Processes saving shims at once could leave a cache entry with another layout's code: compile's result must
-    be the overload registered for this layout, else the kernel is called directly."""
+    """Processes saving shims at once could leave a cache entry with another layout's code, which numba registers
+    under that layout's signature: without an overload for this layout after compiling, the kernel is called
+    directly."""
     table, flags, constants, scale, pair, count, out = _arguments()
-    other = bind_kernel(_mixed_kernel, (table, flags, constants, scale, pair, float(count), out))  # a float count
+    arguments = (table, flags, constants, scale, pair, np.int32(count), out)  # a layout no other test compiles
+    other = bind_kernel(_mixed_kernel, (*arguments[:5], float(count), out))
+    assert hasattr(other, "arrays")
     monkeypatch.setattr(kernel_call._call_packed, "compile", lambda signature: other.func)
-    direct, bound_args = _arguments(), _arguments()
-    bound = bind_kernel(_mixed_kernel, bound_args)
+    bound = bind_kernel(_mixed_kernel, arguments)
     assert not hasattr(bound, "arrays")
-    assert bound() == _mixed_kernel(*direct)
+    assert bound() == _mixed_kernel(*_arguments())

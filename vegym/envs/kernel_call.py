@@ -109,7 +109,8 @@ def _kernel_name(kernel: Dispatcher) -> str | None:
 def _compile_lock() -> Iterator[None]:
     """Serialise compiling shims across processes: numba reads, changes and rewrites ``_call_packed``'s one cache
     index without a lock, so two processes saving different layouts at once could pair one layout with the other's
-    code. A file lock where the platform has one (POSIX); elsewhere :func:`bind_kernel`'s check still holds."""
+    code. A file lock where the platform has one (POSIX); elsewhere :func:`bind_kernel` still finds such code out
+    (numba registers it under its own layout's signature)."""
     try:
         import fcntl
     except ImportError:
@@ -159,13 +160,13 @@ def bind_kernel(kernel: Callable[..., Any], args: tuple[Any, ...]) -> Callable[[
     layout = "|".join([name, *fields])
     table, packed_scalars = np.array(addresses, np.intp), tuple(scalars)
     signature = (_call_packed.typeof_pyval(table), _call_packed.typeof_pyval(packed_scalars), types.literal(layout))
-    with _compile_lock():
-        compiled = _call_packed.compile(signature)
+    if signature not in _call_packed.overloads:
+        with _compile_lock():
+            _call_packed.compile(signature)
+    # None: numba's cache gave code saved for another layout (registered under that layout's signature)
     overload = _call_packed.overloads.get(signature)
-    if overload is None or overload.entry_point is not compiled:  # a cache entry saved for another layout
+    if overload is None or not isinstance(overload.signature.return_type, _SCALAR_RESULTS):
         return functools.partial(kernel, *args)
-    if not isinstance(overload.signature.return_type, _SCALAR_RESULTS):
-        return functools.partial(kernel, *args)
-    bound = functools.partial(compiled, table, packed_scalars, layout)
+    bound = functools.partial(overload.entry_point, table, packed_scalars, layout)
     bound.arrays = args  # type: ignore[attr-defined]  # the table holds their addresses: keep them alive
     return bound
