@@ -201,6 +201,16 @@ def test_returned_arrays_are_never_written_by_later_steps(env_id: str) -> None:
     assert_same(copies, (kept_vec, kept_single))
 
 
+def test_vector_info_constants_are_one_read_only_array_shared_by_the_steps() -> None:
+    vec = gym.make_vec("vegym/BouncingBall-v0", num_envs=4, vectorization_mode="vector_entry_point")
+    vec.reset(seed=0)
+    actions = np.zeros((4, 1), np.float32)
+    first, second = vec.step(actions)[4]["gravity"], vec.step(actions)[4]["gravity"]
+    assert first is second
+    assert not first.flags.writeable
+    np.testing.assert_array_equal(first, np.full(4, vec.unwrapped.params.gravity))
+
+
 @pytest.mark.parametrize("env_id", ENV_IDS)
 def test_threaded_chunks_step_exactly_as_one_chunk(env_id: str, monkeypatch: pytest.MonkeyPatch) -> None:
     n = 64

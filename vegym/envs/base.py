@@ -199,42 +199,40 @@ def _load_actions(source: np.ndarray, target: np.ndarray, tolerance: float) -> i
 
 
 @njit(cache=True, nogil=True)
-def _count_steps(step: np.ndarray, resetting: np.ndarray, active: np.ndarray) -> np.ndarray:
-    """After a vector step: count it in ``step``, set it to 0 for the ``resetting`` sub-envs (which start an
-    episode now) and ``active`` to the others; returns the resetting rows (int indices)."""
+def _end_step(
+    step: np.ndarray,
+    resetting: np.ndarray,
+    max_steps: int,
+    reward: np.ndarray,
+    terminated: np.ndarray,
+    active: np.ndarray,
+    truncated: np.ndarray,
+    autoreset: np.ndarray,
+) -> np.ndarray:
+    """A vector step's bookkeeping, in place, in one branch-free pass: the step counted in ``step``, which is 0
+    for the ``resetting`` sub-envs (they start an episode now, with reward 0 and not terminated); ``active`` the
+    others; ``truncated`` where an active sub-env reached ``max_steps`` steps; ``autoreset`` where it terminated
+    or truncated. Returns the resetting rows (int indices)."""
     count = 0
     for i in range(len(step)):
         r = resetting[i]
-        step[i] = 0 if r else step[i] + 1
-        active[i] = not r
+        a = not r
+        counted = (step[i] + 1) * a
+        step[i] = counted
+        active[i] = a
+        reward[i] = reward[i] if a else 0.0
+        ended = terminated[i] & a
+        cut = a & (counted >= max_steps)
+        terminated[i], truncated[i], autoreset[i] = ended, cut, ended | cut
         count += r
     rows = np.empty(count, np.intp)
-    j = 0
-    for i in range(len(step)):
-        if resetting[i]:
-            rows[j] = i
-            j += 1
+    if count:
+        j = 0
+        for i in range(len(step)):
+            if resetting[i]:
+                rows[j] = i
+                j += 1
     return rows
-
-
-@njit(cache=True, nogil=True)
-def _end_flags(
-    rows: np.ndarray,
-    step: np.ndarray,
-    max_steps: int,
-    active: np.ndarray,
-    reward: np.ndarray,
-    terminated: np.ndarray,
-    truncated: np.ndarray,
-    autoreset: np.ndarray,
-) -> None:
-    """After a vector step: reward 0 and not terminated in the restarted ``rows``; ``truncated`` where an
-    ``active`` sub-env reached ``max_steps`` steps; ``autoreset`` where it terminated or truncated."""
-    for j in range(len(rows)):
-        reward[rows[j]], terminated[rows[j]] = 0.0, False
-    for i in range(len(step)):
-        truncated[i] = active[i] & (step[i] >= max_steps)
-        autoreset[i] = terminated[i] | truncated[i]
 
 
 def action_shapes(n: int, dim: int) -> frozenset[tuple[int, ...]]:
@@ -559,6 +557,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         self._load_actions = ActionLoader(num_envs, self.single_action_space.shape)
         self._autoreset = np.zeros(num_envs, dtype=bool)
         self._every = np.arange(num_envs)
+        self._constant_arrays: dict[str, tuple[Any, np.ndarray]] = {}
 
     def reset(
         self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None
@@ -633,41 +632,49 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         if state is None:
             raise gym.error.ResetNeeded("Call reset() before step().")
         a = self._load_actions(actions)
-        out = self.task.outputs(self.num_envs)
+        n = self.num_envs
+        out = self.task.outputs(n)
         resetting = self._autoreset
         every_resets = resetting.all()
-        if every_resets:
-            for value in out.values():
-                value.fill(0)
+        if every_resets:  # the restart below observes every sub-env
+            for name, value in out.items():
+                if name != "obs":
+                    value.fill(0)
         else:
-            _in_chunks(self.num_envs, lambda rows: self.task.step(rows_of(state, rows), a[rows], rows_of(out, rows)))
-        active = np.empty(self.num_envs, np.bool_)
-        rows = _count_steps(state["step"], resetting, active)
+            _in_chunks(n, lambda rows: self.task.step(rows_of(state, rows), a[rows], rows_of(out, rows)))
+        active, truncated, self._autoreset = np.empty(n, np.bool_), np.empty(n, np.bool_), np.empty(n, np.bool_)
+        max_steps = self.max_episode_steps if self.max_episode_steps is not None else np.iinfo(np.int64).max
+        reward, terminated = out["reward"], out["terminated"]
+        rows = _end_step(state["step"], resetting, max_steps, reward, terminated, active, truncated, self._autoreset)
         info = self._vector_info(self.task.info(state, out), active, {id(v) for v in state.values()})
-        if every_resets:  # the outputs are zeros already
+        if every_resets:
             every = self._every
-            _in_chunks(
-                self.num_envs, lambda r: self.task.restart(rows_of(state, r), every[: r.stop - r.start], out["obs"][r])
-            )
+            _in_chunks(n, lambda r: self.task.restart(rows_of(state, r), every[: r.stop - r.start], out["obs"][r]))
         elif len(rows):
             self.task.restart(state, rows, out["obs"])
-        reward, terminated = out["reward"], out["terminated"]
-        truncated, self._autoreset = np.empty(self.num_envs, np.bool_), np.empty(self.num_envs, np.bool_)
-        max_steps = self.max_episode_steps if self.max_episode_steps is not None else np.iinfo(np.int64).max
-        _end_flags(rows, state["step"], max_steps, active, reward, terminated, truncated, self._autoreset)
         return out["obs"], reward, terminated, truncated, info
 
-    def _vector_info(self, info: Mapping[str, Any], mask: np.ndarray, state_ids: set[int]) -> Info:
-        """``info`` with Gymnasium's ``_name`` masks; arrays of (views of) the state, which later steps update in
-        place, copied."""
+    def _vector_info(self, info: Mapping[str, Any], mask: np.ndarray, state_ids: set[int], prefix: str = "") -> Info:
+        """``info`` with Gymnasium's ``_name`` masks: arrays of (views of) the state, which later steps update in
+        place, copied; a constant (not an array) as a read-only array, shared by the steps while it stays the same
+        object."""
         out: Info = {}
         for name, value in info.items():
-            if isinstance(value, Mapping):
-                out[name] = self._vector_info(value, mask, state_ids)
-            elif not isinstance(value, np.ndarray):
-                out[name] = np.full(self.num_envs, value)
+            if type(value) is np.ndarray:
+                out[name] = value.copy() if id(value) in state_ids or id(value.base) in state_ids else value
+            elif isinstance(value, Mapping):
+                out[name] = self._vector_info(value, mask, state_ids, f"{prefix}{name}/")
             else:
-                shares_state = id(value) in state_ids or id(value.base) in state_ids
-                out[name] = value.copy() if shares_state else value
+                out[name] = self._constant_array(prefix + name, value)
             out[f"_{name}"] = mask
         return out
+
+    def _constant_array(self, path: str, value: Any) -> np.ndarray:
+        """The read-only ``(num_envs,)`` array of ``value``, info entry ``path``'s: made again only when the task
+        returns another object there."""
+        cached = self._constant_arrays.get(path)
+        if cached is None or cached[0] is not value:
+            array = np.full(self.num_envs, value)
+            array.flags.writeable = False
+            self._constant_arrays[path] = cached = (value, array)
+        return cached[1]
