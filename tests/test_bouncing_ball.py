@@ -95,6 +95,22 @@ def test_every_ball_at_rest_in_a_vector_env_is_charged_the_targets_it_skips(
     np.testing.assert_allclose(reward, info["reward_terms"]["apex_error"] + expected, rtol=1e-12)
 
 
+@pytest.mark.parametrize("lookahead", [0, 2, 7])
+def test_the_shown_targets_shift_by_one_per_bounce_and_are_observed_for_any_lookahead(lookahead: int) -> None:
+    """Each row width compiles a step kernel of its own (``BouncingBallTask.row_width``)."""
+    n = 16
+    vec = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", lookahead=lookahead)
+    vec.reset(seed=1)
+    task, state = vec.unwrapped.task, vec.unwrapped.state
+    keys = state["key"].copy()
+    for bounce in range(1, 4):
+        obs, *_ = vec.step(np.ones((n, 1), np.float32))  # e = 1: no ball comes to rest
+        np.testing.assert_array_equal(state["targets"], task.targets(keys, bounce + lookahead + 1)[:, bounce:])
+        by_rows = np.empty_like(obs)
+        task.observe_rows(state, np.arange(n), by_rows)
+        np.testing.assert_array_equal(obs, by_rows)
+
+
 def test_coming_to_rest_early_never_pays() -> None:
     env = gym.make(ENV_ID)
     controller = controller_for(env)

@@ -145,23 +145,25 @@ def _step_kernel(
     success: np.ndarray,
     terminated: np.ndarray,
     obs: np.ndarray,
+    row_width: tuple[int, ...],
 ) -> None:
     """One impact per episode and the next observation, in place on the state arrays (``speed`` to
     ``error_sum``; ``keys`` and ``step``, the steps taken before this one, are read only) and into the outputs
     (``impact_speed`` to ``obs``): the impact speed (m/s), restitution, apex (m) and target (m) of this bounce, the
     reward terms (apex error, rest), reward, is_success and terminated (at rest); ``c`` holds the parameters named
-    in ``STEP_CONSTANTS``.
+    in ``STEP_CONSTANTS``; ``row_width`` is :attr:`BouncingBallTask.row_width`.
 
-    Written as passes over the batch: the bounce and the draw of the newest targets as loops without calls or
-    exits that the compiler turns into SIMD code (over contiguous copies of the targets' columns, whose row width
-    is a runtime value), the targets' shift and the observation (strided), and passes over copies of the balls
-    that came to rest (:func:`_charge_rest`).
+    Written as passes over the batch that the compiler turns into SIMD code: the bounce, the targets' shift, the
+    draw of the newest targets and the observation (loops without calls or exits; the targets' rows through a flat
+    view, whose compile-time row width gives constant strides), and passes over copies of the balls that came to
+    rest (:func:`_charge_rest`).
     """
     radius, gravity, rest_speed, height_scale, success_error = c[0], c[1], c[2], c[3], c[5]
-    n, lookahead = len(action), targets.shape[1] - 1
-    current, newest = scratch(n), scratch(n)  # targets' columns, contiguous: their row width is a runtime value
+    n, width = len(action), len(row_width)
+    lookahead, flat = width - 1, targets.reshape(-1)
+    current, newest = scratch(n), scratch(n)  # the targets' first and last columns
     for i in range(n):
-        current[i], newest[i] = targets[i, 0], targets[i, lookahead]
+        current[i], newest[i] = flat[width * i], flat[width * i + lookahead]
     for i in range(n):
         e = 0.5 * (action[i, 0] + 1.0)
         v = speed[i]
@@ -183,14 +185,14 @@ def _step_kernel(
     for i in range(n):  # a pass of its own: strided stores would keep the bounce's pass from SIMD code
         terms[i, 0], terms[i, 1] = reward[i], -0.0
     _charge_rest(keys, step, targets, c, offsets, terminated, error_sum, terms, reward, success)
-    for k in range(lookahead):
-        for i in range(n):
-            targets[i, k] = targets[i, k + 1]
+    for i in range(n):
+        for k in range(lookahead):
+            flat[width * i + k] = flat[width * i + k + 1]
     for i in range(n):
         newest[i] = _next_target(keys[i], step[i] + lookahead + 1, newest[i], c, offsets)
     for i in range(n):
-        targets[i, lookahead] = newest[i]
-    _observe_kernel(speed, targets, c, obs)
+        flat[width * i + lookahead] = newest[i]
+    _observe(speed, targets, c, obs, width)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -286,11 +288,26 @@ def _restart_kernel(
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _observe_kernel(speed: np.ndarray, targets: np.ndarray, c: np.ndarray, obs: np.ndarray) -> None:
-    """Observations (n, 3 + lookahead) written into ``obs``; ``c`` holds the parameters named in
-    ``STEP_CONSTANTS``."""
+def _observe_kernel(
+    speed: np.ndarray, targets: np.ndarray, c: np.ndarray, obs: np.ndarray, row_width: tuple[int, ...]
+) -> None:
+    """Observations (n, 3 + lookahead) written into ``obs`` (:func:`_observe`); ``row_width`` is
+    :attr:`BouncingBallTask.row_width`."""
+    _observe(speed, targets, c, obs, len(row_width))
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _observe(speed: np.ndarray, targets: np.ndarray, c: np.ndarray, obs: np.ndarray, width: int) -> None:
+    """:func:`_observe_row` of every episode, as one pass through flat views that the compiler turns into SIMD
+    code when ``width``, the targets' row width, is a compile-time constant."""
+    radius, height_scale, drop_speed = c[0], c[3], c[10]
+    flat, out = targets.reshape(-1), obs.reshape(-1)
+    obs_width = width + 2
     for i in range(len(speed)):
-        _observe_row(i, speed, targets, c, obs)
+        v = speed[i] / drop_speed
+        out[obs_width * i], out[obs_width * i + 1] = v, v * v
+        for k in range(width):
+            out[obs_width * i + 2 + k] = (flat[width * i + k] - radius) / height_scale
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -328,6 +345,9 @@ class BouncingBallTask(Task[BouncingBallParams]):
         self._offsets = np.array(
             [rng.stream_offset(_FIRST_TARGET_STREAM), rng.stream_offset(_TARGET_RATIO_STREAM)], dtype=np.uint64
         )
+        self.row_width = (0,) * (params.lookahead + 1)
+        """The targets' row width, ``lookahead + 1``, as the length of a tuple for the kernels: numba types a tuple
+        by its length, so each width gets a kernel of its own in which the width is a constant."""
 
     @property
     def control_rate(self) -> float:
@@ -374,6 +394,7 @@ class BouncingBallTask(Task[BouncingBallParams]):
             action, state["speed"], state["time"], state["targets"], state["error_sum"], state["key"], state["step"],
             self._constants, self._offsets, out["impact_speed"], out["restitution"], out["apex_height"],
             out["target_height"], out["terms"], out["reward"], out["success"], out["terminated"], out["obs"],
+            self.row_width,
         )  # fmt: skip
 
     def info(self, state: State, out: State) -> Info:
@@ -389,7 +410,7 @@ class BouncingBallTask(Task[BouncingBallParams]):
         }
 
     def observe(self, state: State, obs: np.ndarray) -> None:
-        _observe_kernel(state["speed"], state["targets"], self._constants, obs)
+        _observe_kernel(state["speed"], state["targets"], self._constants, obs, self.row_width)
 
     def observe_rows(self, state: State, rows: np.ndarray, obs: np.ndarray) -> None:
         _observe_rows_kernel(rows, state["speed"], state["targets"], self._constants, obs)
