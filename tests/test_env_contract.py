@@ -249,6 +249,24 @@ def test_transition_is_the_env_step_as_a_pure_function(env_id: str) -> None:
             break
 
 
+EPISODE_CONSTANT_ENV_IDS = [
+    env_id for env_id in ENV_IDS if base.load_object(gym.spec(env_id).entry_point).task_cls.episode_constants
+]
+
+
+@pytest.mark.parametrize("env_id", EPISODE_CONSTANT_ENV_IDS)
+def test_restarting_every_row_writes_all_of_the_episode_constants(env_id: str) -> None:
+    """The vector env hands a restart of every row uninitialised arrays for them."""
+    vec = gym.make_vec(env_id, num_envs=6, vectorization_mode="vector_entry_point")
+    vec.reset(seed=2)
+    task, state = vec.unwrapped.task, vec.unwrapped.state
+    for name in task.episode_constants:
+        state[name].fill(np.nan)
+    task.restart(state, np.arange(6), np.empty((6, *task.observation_space.shape), np.float32))
+    for name in task.episode_constants:
+        assert np.isfinite(state[name]).all(), name
+
+
 @pytest.mark.parametrize("env_id", ENV_IDS)
 def test_observing_some_rows_writes_those_rows_of_the_full_observation_only(env_id: str) -> None:
     vec = gym.make_vec(env_id, num_envs=12, vectorization_mode="vector_entry_point")

@@ -59,6 +59,10 @@ class Task(abc.ABC, Generic[P]):
     params_cls: ClassVar[type[Params]]
     renderer: ClassVar[str] = ""
     """``"module:Class"`` of the renderer, imported only when a render mode is asked for."""
+    episode_constants: ClassVar[tuple[str, ...]] = ()
+    """State arrays that the info returns and that are fixed for an episode: only :meth:`start` and :meth:`restart`
+    write them, every element of a row they start. The vector env's infos return them without copies, and its state
+    gets new ones before episodes start."""
 
     observation_space: spaces.Box
     action_space: spaces.Box
@@ -225,14 +229,13 @@ def _end_step(
         cut = a & (counted >= max_steps)
         terminated[i], truncated[i], autoreset[i] = ended, cut, ended | cut
         count += r
-    rows = np.empty(count, np.intp)
+    rows = np.empty(count + 1, np.intp)
     if count:
         j = 0
-        for i in range(len(step)):
-            if resetting[i]:
-                rows[j] = i
-                j += 1
-    return rows
+        for i in range(len(step)):  # branch-free: every row is written, the next one overwrites it if not resetting
+            rows[j] = i
+            j += resetting[i]
+    return rows[:count]
 
 
 def action_shapes(n: int, dim: int) -> frozenset[tuple[int, ...]]:
@@ -603,6 +606,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
 
     def _start(self, rows: np.ndarray, keys: np.ndarray) -> None:
         """Start the episodes of ``keys`` in the sub-envs ``rows`` (int indices), in place."""
+        self._renew_episode_constants(every_row=len(rows) == self.num_envs)
         state = self.state
         assert state is not None
         if len(rows) == self.num_envs:  # every sub-env: in chunks, on views
@@ -646,13 +650,28 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         max_steps = self.max_episode_steps if self.max_episode_steps is not None else np.iinfo(np.int64).max
         reward, terminated = out["reward"], out["terminated"]
         rows = _end_step(state["step"], resetting, max_steps, reward, terminated, active, truncated, self._autoreset)
-        info = self._vector_info(self.task.info(state, out), active, {id(v) for v in state.values()})
+        info = self._vector_info(self.task.info(state, out), active, self._updated_in_place(state))
+        if len(rows):
+            self._renew_episode_constants(every_row=every_resets)
         if every_resets:
             every = self._every
             _in_chunks(n, lambda r: self.task.restart(rows_of(state, r), every[: r.stop - r.start], out["obs"][r]))
         elif len(rows):
             self.task.restart(state, rows, out["obs"])
         return out["obs"], reward, terminated, truncated, info
+
+    def _updated_in_place(self, state: State) -> set[int]:
+        """The ids of the state arrays that later steps update in place (all but the episode constants)."""
+        constants = self.task.episode_constants
+        return {id(value) for name, value in state.items() if name not in constants}
+
+    def _renew_episode_constants(self, every_row: bool) -> None:
+        """New arrays for the task's episode constants, before episodes start: earlier infos hold the old ones.
+        Copies, or uninitialised when every row is about to be started."""
+        state = self.state
+        assert state is not None
+        for name in self.task.episode_constants:
+            state[name] = np.empty_like(state[name]) if every_row else state[name].copy()
 
     def _vector_info(self, info: Mapping[str, Any], mask: np.ndarray, state_ids: set[int], prefix: str = "") -> Info:
         """``info`` with Gymnasium's ``_name`` masks: arrays of (views of) the state, which later steps update in

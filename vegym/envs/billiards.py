@@ -319,6 +319,7 @@ class BilliardsTask(Task[BilliardsParams]):
 
     params_cls = BilliardsParams
     renderer = "vegym.render.billiards:BilliardsRenderer"
+    episode_constants = ("ball_a", "ball_b", "target")
 
     def __init__(self, params: BilliardsParams) -> None:
         super().__init__(params)

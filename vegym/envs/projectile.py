@@ -283,6 +283,7 @@ class ProjectileTask(Task[ProjectileEnvParams]):
 
     params_cls = ProjectileEnvParams
     renderer = "vegym.render.projectile:ProjectileRenderer"
+    episode_constants = ("launch_position", "target", "wind")
 
     def __init__(self, params: ProjectileEnvParams) -> None:
         super().__init__(params)

@@ -206,6 +206,7 @@ class ProjectileAdjustTask(Task[ProjectileAdjustParams]):
 
     params_cls = ProjectileAdjustParams
     renderer = "vegym.render.projectile_adjust:ProjectileAdjustRenderer"
+    episode_constants = ("launch_position", "target", "wind")
 
     def __init__(self, params: ProjectileAdjustParams) -> None:
         super().__init__(params)
