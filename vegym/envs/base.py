@@ -530,8 +530,9 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
 
     NEXT_STEP autoreset: the step after a sub-env terminates or truncates resets it, returning its first
     observation with reward 0 and ``terminated = truncated = False``. Truncation comes from
-    ``max_episode_steps`` (``make_vec`` passes the registered value). The state is updated in place; every
-    returned array is fresh and never written again.
+    ``max_episode_steps`` (``make_vec`` passes the registered value). The state is updated in place, but for the
+    task's episode constants, which get new arrays when episodes start. No returned array is ever written again:
+    they are fresh, or the episode constants' old arrays, or the infos' read-only arrays of constants.
     """
 
     task_cls: ClassVar[type[Task]]
@@ -679,7 +680,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         object."""
         out: Info = {}
         for name, value in info.items():
-            if type(value) is np.ndarray:
+            if isinstance(value, np.ndarray):
                 out[name] = value.copy() if id(value) in state_ids or id(value.base) in state_ids else value
             elif isinstance(value, Mapping):
                 out[name] = self._vector_info(value, mask, state_ids, f"{prefix}{name}/")
