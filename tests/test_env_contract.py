@@ -201,14 +201,46 @@ def test_returned_arrays_are_never_written_by_later_steps(env_id: str) -> None:
     assert_same(copies, (kept_vec, kept_single))
 
 
-def test_vector_info_constants_are_one_read_only_array_shared_by_the_steps() -> None:
+@pytest.mark.parametrize("copied", [False, True], ids=["env", "deep copy of the env"])
+def test_vector_info_constants_are_one_read_only_array_shared_by_the_steps(copied: bool) -> None:
     vec = gym.make_vec("vegym/BouncingBall-v0", num_envs=4, vectorization_mode="vector_entry_point")
     vec.reset(seed=0)
     actions = np.zeros((4, 1), np.float32)
+    vec.step(actions)
+    if copied:
+        vec = copy.deepcopy(vec)
     first, second = vec.step(actions)[4]["gravity"], vec.step(actions)[4]["gravity"]
     assert first is second
     assert not first.flags.writeable
     np.testing.assert_array_equal(first, np.full(4, vec.unwrapped.params.gravity))
+
+
+def leaves(info: dict, prefix: str = "") -> list[tuple[str, np.ndarray]]:
+    """The arrays of a (nested) info dict, with their paths."""
+    found = []
+    for name, value in info.items():
+        if isinstance(value, dict):
+            found += leaves(value, f"{prefix}{name}/")
+        else:
+            found.append((prefix + name, value))
+    return found
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_vector_info_arrays_that_share_the_state_are_read_only(env_id: str) -> None:
+    """Writing into an info array must not change the env (the episode constants are shared, not copied)."""
+    limit = min(gym.spec(env_id).max_episode_steps, 4)
+    vec = gym.make_vec(env_id, num_envs=3, vectorization_mode="vector_entry_point", max_episode_steps=limit)
+    vec.reset(seed=0)
+    shared = 0
+    for step_actions in random_actions(env_id, 10 * 3, seed=4).reshape(10, 3, -1):
+        info = vec.step(step_actions)[4]
+        state = vec.unwrapped.state.values()
+        for path, value in leaves(info):
+            if any(np.shares_memory(value, array) for array in state):
+                assert not value.flags.writeable, path
+                shared += 1
+    assert shared > 0 or not vec.unwrapped.task.episode_constants
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)

@@ -61,8 +61,8 @@ class Task(abc.ABC, Generic[P]):
     """``"module:Class"`` of the renderer, imported only when a render mode is asked for."""
     episode_constants: ClassVar[tuple[str, ...]] = ()
     """State arrays that the info returns and that are fixed for an episode: only :meth:`start` and :meth:`restart`
-    write them, every element of a row they start. The vector env's infos return them without copies, and its state
-    gets new ones before episodes start."""
+    write them, every element of a row they start. The vector env's infos return read-only views of them, not
+    copies, and its state gets new ones before episodes start."""
 
     observation_space: spaces.Box
     action_space: spaces.Box
@@ -532,7 +532,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
     observation with reward 0 and ``terminated = truncated = False``. Truncation comes from
     ``max_episode_steps`` (``make_vec`` passes the registered value). The state is updated in place, but for the
     task's episode constants, which get new arrays when episodes start. No returned array is ever written again:
-    they are fresh, or the episode constants' old arrays, or the infos' read-only arrays of constants.
+    they are fresh or read-only (the infos' views of the episode constants and arrays of constants).
     """
 
     task_cls: ClassVar[type[Task]]
@@ -651,7 +651,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         max_steps = self.max_episode_steps if self.max_episode_steps is not None else np.iinfo(np.int64).max
         reward, terminated = out["reward"], out["terminated"]
         rows = _end_step(state["step"], resetting, max_steps, reward, terminated, active, truncated, self._autoreset)
-        info = self._vector_info(self.task.info(state, out), active, self._updated_in_place(state))
+        info = self._vector_info(self.task.info(state, out), active, *self._state_ids(state))
         if len(rows):
             self._renew_episode_constants(every_row=every_resets)
         if every_resets:
@@ -661,10 +661,13 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             self.task.restart(state, rows, out["obs"])
         return out["obs"], reward, terminated, truncated, info
 
-    def _updated_in_place(self, state: State) -> set[int]:
-        """The ids of the state arrays that later steps update in place (all but the episode constants)."""
+    def _state_ids(self, state: State) -> tuple[set[int], set[int]]:
+        """The ids of the state arrays that later steps update in place, and of the episode constants."""
         constants = self.task.episode_constants
-        return {id(value) for name, value in state.items() if name not in constants}
+        return (
+            {id(value) for name, value in state.items() if name not in constants},
+            {id(state[name]) for name in constants},
+        )
 
     def _renew_episode_constants(self, every_row: bool) -> None:
         """New arrays for the task's episode constants, before episodes start: earlier infos hold the old ones.
@@ -674,26 +677,34 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         for name in self.task.episode_constants:
             state[name] = np.empty_like(state[name]) if every_row else state[name].copy()
 
-    def _vector_info(self, info: Mapping[str, Any], mask: np.ndarray, state_ids: set[int], prefix: str = "") -> Info:
-        """``info`` with Gymnasium's ``_name`` masks: arrays of (views of) the state, which later steps update in
-        place, copied; a constant (not an array) as a read-only array, shared by the steps while it stays the same
+    def _vector_info(
+        self, info: Mapping[str, Any], mask: np.ndarray, updated_ids: set[int], constant_ids: set[int], prefix: str = ""
+    ) -> Info:
+        """``info`` with Gymnasium's ``_name`` masks. Arrays of (views of) the state: copied where later steps update
+        them in place (``updated_ids``), read-only views of the episode constants (``constant_ids``), which the
+        next steps read. A constant (not an array): a read-only array, shared by the steps while it stays the same
         object."""
         out: Info = {}
         for name, value in info.items():
             if isinstance(value, np.ndarray):
-                out[name] = value.copy() if id(value) in state_ids or id(value.base) in state_ids else value
+                if id(value) in updated_ids or id(value.base) in updated_ids:
+                    value = value.copy()
+                elif id(value) in constant_ids or id(value.base) in constant_ids:
+                    value = value.view()
+                    value.flags.writeable = False
+                out[name] = value
             elif isinstance(value, Mapping):
-                out[name] = self._vector_info(value, mask, state_ids, f"{prefix}{name}/")
+                out[name] = self._vector_info(value, mask, updated_ids, constant_ids, f"{prefix}{name}/")
             else:
                 out[name] = self._constant_array(prefix + name, value)
             out[f"_{name}"] = mask
         return out
 
     def _constant_array(self, path: str, value: Any) -> np.ndarray:
-        """The read-only ``(num_envs,)`` array of ``value``, info entry ``path``'s: made again only when the task
-        returns another object there."""
+        """The read-only ``(num_envs,)`` array of ``value``, info entry ``path``'s: made again when the task
+        returns another object there, or in a copy of the env that lost the read-only flag."""
         cached = self._constant_arrays.get(path)
-        if cached is None or cached[0] is not value:
+        if cached is None or cached[0] is not value or cached[1].flags.writeable:
             array = np.full(self.num_envs, value)
             array.flags.writeable = False
             self._constant_arrays[path] = cached = (value, array)
