@@ -284,7 +284,7 @@ def _restart_kernel(
     next_keys = rng.advance_rows(keys, rows)
     _start(next_keys, rows, speed, time, targets, error_sum, c, offsets)
     for j in range(len(rows)):
-        _observe_row(rows[j], speed, targets, c, obs)
+        _observe_row(rows[j], speed, targets.reshape(-1), c, obs.reshape(-1), targets.shape[1])
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -298,16 +298,11 @@ def _observe_kernel(
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _observe(speed: np.ndarray, targets: np.ndarray, c: np.ndarray, obs: np.ndarray, width: int) -> None:
-    """:func:`_observe_row` of every episode, as one pass through flat views that the compiler turns into SIMD
-    code when ``width``, the targets' row width, is a compile-time constant."""
-    radius, height_scale, drop_speed = c[0], c[3], c[10]
+    """:func:`_observe_row` of every episode, as one pass that the compiler turns into SIMD code when ``width``, the
+    targets' row width, is a compile-time constant."""
     flat, out = targets.reshape(-1), obs.reshape(-1)
-    obs_width = width + 2
     for i in range(len(speed)):
-        v = speed[i] / drop_speed
-        out[obs_width * i], out[obs_width * i + 1] = v, v * v
-        for k in range(width):
-            out[obs_width * i + 2 + k] = (flat[width * i + k] - radius) / height_scale
+        _observe_row(i, speed, flat, c, out, width)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -315,18 +310,22 @@ def _observe_rows_kernel(
     rows: np.ndarray, speed: np.ndarray, targets: np.ndarray, c: np.ndarray, obs: np.ndarray
 ) -> None:
     """:func:`_observe_kernel` of the episodes ``rows`` (int indices) only, into those rows of ``obs``."""
+    flat, out, width = targets.reshape(-1), obs.reshape(-1), targets.shape[1]
     for r in rows:
-        _observe_row(r, speed, targets, c, obs)
+        _observe_row(r, speed, flat, c, out, width)
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _observe_row(i: int, speed: np.ndarray, targets: np.ndarray, c: np.ndarray, obs: np.ndarray) -> None:
-    """Observation of episode ``i`` into ``obs[i]``; ``c`` holds the parameters named in ``STEP_CONSTANTS``."""
+def _observe_row(i: int, speed: np.ndarray, targets: np.ndarray, c: np.ndarray, obs: np.ndarray, width: int) -> None:
+    """Observation of episode ``i`` into its row of ``obs``, through flat views of ``targets`` and ``obs``
+    (``width``: the targets' row width; the observation's is ``width + 2``); ``c`` holds the parameters named in
+    ``STEP_CONSTANTS``."""
     radius, height_scale, drop_speed = c[0], c[3], c[10]
+    row = (width + 2) * i
     v = speed[i] / drop_speed
-    obs[i, 0], obs[i, 1] = v, v * v
-    for k in range(targets.shape[1]):
-        obs[i, 2 + k] = (targets[i, k] - radius) / height_scale
+    obs[row], obs[row + 1] = v, v * v
+    for k in range(width):
+        obs[row + 2 + k] = (targets[width * i + k] - radius) / height_scale
 
 
 class BouncingBallTask(Task[BouncingBallParams]):

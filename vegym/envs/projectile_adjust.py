@@ -206,7 +206,7 @@ class ProjectileAdjustTask(Task[ProjectileAdjustParams]):
 
     params_cls = ProjectileAdjustParams
     renderer = "vegym.render.projectile_adjust:ProjectileAdjustRenderer"
-    episode_constants = ("launch_position", "target", "wind")
+    episode_constants = ProjectileTask.episode_constants
 
     def __init__(self, params: ProjectileAdjustParams) -> None:
         super().__init__(params)
