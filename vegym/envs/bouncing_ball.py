@@ -283,8 +283,9 @@ def _restart_kernel(
     in place, the episodes started (:func:`_start`) and observed into those rows of ``obs``."""
     next_keys = rng.advance_rows(keys, rows)
     _start(next_keys, rows, speed, time, targets, error_sum, c, offsets)
+    flat, out, width = targets.reshape(-1), obs.reshape(-1), targets.shape[1]
     for j in range(len(rows)):
-        _observe_row(rows[j], speed, targets.reshape(-1), c, obs.reshape(-1), targets.shape[1])
+        _observe_row(rows[j], speed, flat, out, width, c[0], c[3], c[10])
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -300,9 +301,9 @@ def _observe_kernel(
 def _observe(speed: np.ndarray, targets: np.ndarray, c: np.ndarray, obs: np.ndarray, width: int) -> None:
     """:func:`_observe_row` of every episode, as one pass that the compiler turns into SIMD code when ``width``, the
     targets' row width, is a compile-time constant."""
-    flat, out = targets.reshape(-1), obs.reshape(-1)
-    for i in range(len(speed)):
-        _observe_row(i, speed, flat, c, out, width)
+    flat, out, radius, height_scale, drop_speed = targets.reshape(-1), obs.reshape(-1), c[0], c[3], c[10]
+    for i in range(len(speed)):  # the parameters read once: in the loop, each write to ``out`` might change them
+        _observe_row(i, speed, flat, out, width, radius, height_scale, drop_speed)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -312,15 +313,23 @@ def _observe_rows_kernel(
     """:func:`_observe_kernel` of the episodes ``rows`` (int indices) only, into those rows of ``obs``."""
     flat, out, width = targets.reshape(-1), obs.reshape(-1), targets.shape[1]
     for r in rows:
-        _observe_row(r, speed, flat, c, out, width)
+        _observe_row(r, speed, flat, out, width, c[0], c[3], c[10])
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _observe_row(i: int, speed: np.ndarray, targets: np.ndarray, c: np.ndarray, obs: np.ndarray, width: int) -> None:
+def _observe_row(
+    i: int,
+    speed: np.ndarray,
+    targets: np.ndarray,
+    obs: np.ndarray,
+    width: int,
+    radius: float,
+    height_scale: float,
+    drop_speed: float,
+) -> None:
     """Observation of episode ``i`` into its row of ``obs``, through flat views of ``targets`` and ``obs``
-    (``width``: the targets' row width; the observation's is ``width + 2``); ``c`` holds the parameters named in
-    ``STEP_CONSTANTS``."""
-    radius, height_scale, drop_speed = c[0], c[3], c[10]
+    (``width``: the targets' row width; the observation's is ``width + 2``); SI units, the parameters as in
+    :class:`BouncingBallParams`."""
     row = (width + 2) * i
     v = speed[i] / drop_speed
     obs[row], obs[row + 1] = v, v * v
