@@ -283,9 +283,7 @@ def _restart_kernel(
     in place, the episodes started (:func:`_start`) and observed into those rows of ``obs``."""
     next_keys = rng.advance_rows(keys, rows)
     _start(next_keys, rows, speed, time, targets, error_sum, c, offsets)
-    flat, out, width = targets.reshape(-1), obs.reshape(-1), targets.shape[1]
-    for j in range(len(rows)):
-        _observe_row(rows[j], speed, flat, out, width, c[0], c[3], c[10])
+    _observe_rows(rows, speed, targets, c, obs)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -311,6 +309,13 @@ def _observe_rows_kernel(
     rows: np.ndarray, speed: np.ndarray, targets: np.ndarray, c: np.ndarray, obs: np.ndarray
 ) -> None:
     """:func:`_observe_kernel` of the episodes ``rows`` (int indices) only, into those rows of ``obs``."""
+    _observe_rows(rows, speed, targets, c, obs)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _observe_rows(rows: np.ndarray, speed: np.ndarray, targets: np.ndarray, c: np.ndarray, obs: np.ndarray) -> None:
+    """:func:`_observe_row` of the episodes ``rows`` (int indices), into those rows of ``obs``; ``c`` holds the
+    parameters named in ``STEP_CONSTANTS``."""
     flat, out, width = targets.reshape(-1), obs.reshape(-1), targets.shape[1]
     for r in rows:
         _observe_row(r, speed, flat, out, width, c[0], c[3], c[10])
