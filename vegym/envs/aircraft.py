@@ -10,6 +10,7 @@ from gymnasium import spaces
 from numba import njit
 
 from vegym import rng
+from vegym.envs import schedule
 from vegym.envs.base import Info, KernelCall, State, Task, VegymEnv, VegymVectorEnv
 from vegym.envs.schedule import ScheduledParams
 from vegym.params import Params, invalid, param
@@ -287,6 +288,55 @@ def _observe_kernel(
             obs[i, k] = values[k]
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _demand(key: np.uint64, index: int, ranges: np.ndarray, offset: np.uint64) -> tuple[float, float, float]:
+    """Demand number ``index`` of the episode ``key``: ``(altitude, airspeed, heading)``, uniform in the ranges
+    ``(altitude_min, altitude_max, speed_demand_min, speed_demand_max)`` and in [-pi, pi), from the stream
+    ``offset``."""
+    base = rng.stream_base(key, offset, np.uint64(index))
+    return (
+        ranges[0] + (ranges[1] - ranges[0]) * rng.lane(base, 0),
+        ranges[2] + (ranges[3] - ranges[2]) * rng.lane(base, 1),
+        np.pi * (2.0 * rng.lane(base, 2) - 1.0),
+    )
+
+
+@njit(cache=True, nogil=True)
+def _draw_demands(keys: np.ndarray, index: np.ndarray, ranges: np.ndarray, offset: np.uint64) -> np.ndarray:
+    """:func:`_demand` of each key (n, 3)."""
+    out = np.empty((len(keys), 3))
+    for i in range(len(keys)):
+        out[i, 0], out[i, 1], out[i, 2] = _demand(keys[i], index[i], ranges, offset)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _after_step_kernel(
+    key: np.ndarray,
+    step: np.ndarray,
+    changes: np.ndarray,
+    last_change: np.ndarray,
+    next_change: np.ndarray,
+    timing: schedule.Timing,
+    ranges: np.ndarray,
+    demand_offset: np.uint64,
+    demand: np.ndarray,
+    position: np.ndarray,
+    speed: np.ndarray,
+    heading: np.ndarray,
+    command: np.ndarray,
+    vertical_speed: np.ndarray,
+    c: np.ndarray,
+    obs: np.ndarray,
+) -> None:
+    """The demand changes due at the new step (``step`` not yet counted), in place (:func:`schedule.advance_due`
+    and :func:`_demand`), and the observations of the episodes that changed, into those rows of ``obs``."""
+    rows = schedule.advance_due(key, step, changes, last_change, next_change, timing)
+    for i in rows:
+        demand[i, 0], demand[i, 1], demand[i, 2] = _demand(key[i], changes[i], ranges, demand_offset)
+    _observe_kernel(rows, step, 1, position, speed, heading, command, vertical_speed, demand, last_change, c, obs)
+
+
 class AircraftTask(Task[AircraftEnvParams]):
     """Batched logic of Aircraft-v0 (see :class:`AircraftEnv`)."""
 
@@ -302,6 +352,11 @@ class AircraftTask(Task[AircraftEnvParams]):
         self.action_space = spaces.Box(-1.0, 1.0, (3,), np.float32)
         self._constants = np.array([getattr(params, name) for name in STEP_CONSTANTS], dtype=np.float64)
         self._gust_offset = rng.stream_offset(_GUST_STREAM)
+        self._demand_offset = rng.stream_offset(_DEMAND_STREAM)
+        self._demand_ranges = np.array(
+            [params.altitude_min, params.altitude_max, params.speed_demand_min, params.speed_demand_max]
+        )
+        self._timing = self.schedule.timing
 
     @property
     def control_rate(self) -> float:
@@ -310,16 +365,8 @@ class AircraftTask(Task[AircraftEnvParams]):
     def draw_demand(self, keys: np.ndarray, index: np.ndarray) -> np.ndarray:
         """Demand number ``index`` (n,) of each episode: ``(altitude, airspeed, heading)`` (n, 3), uniform in the
         demand ranges and in [-pi, pi)."""
-        p = self.params
-        u = rng.uniform(keys, _DEMAND_STREAM, 3, counter=index)
-        return np.stack(
-            [
-                p.altitude_min + (p.altitude_max - p.altitude_min) * u[:, 0],
-                p.speed_demand_min + (p.speed_demand_max - p.speed_demand_min) * u[:, 1],
-                np.pi * (2.0 * u[:, 2] - 1.0),
-            ],
-            axis=-1,
-        )
+        keys, index = np.ascontiguousarray(keys, dtype=np.uint64), np.ascontiguousarray(index, dtype=np.int64)
+        return _draw_demands(keys, index, self._demand_ranges, self._demand_offset)
 
     def initial_state(self, keys: np.ndarray) -> State:
         p = self.params
@@ -361,10 +408,10 @@ class AircraftTask(Task[AircraftEnvParams]):
 
     def after_step(self, state: State, out: State) -> None:
         """A demand changes at the new step: advance the schedule, then observe the new demands."""
-        changed = self.schedule.advance(state, state["step"] + 1, "demand", self.draw_demand)
-        _observe_kernel(
-            changed, state["step"], 1, state["position"], state["speed"], state["heading"], state["command"],
-            state["vertical_speed"], state["demand"], state["last_change"], self._constants, out["obs"],
+        _after_step_kernel(
+            state["key"], state["step"], state["changes"], state["last_change"], state["next_change"], self._timing,
+            self._demand_ranges, self._demand_offset, state["demand"], state["position"], state["speed"],
+            state["heading"], state["command"], state["vertical_speed"], self._constants, out["obs"],
         )  # fmt: skip
 
     def info(self, state: State, out: State) -> Info:

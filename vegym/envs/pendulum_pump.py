@@ -10,6 +10,7 @@ from gymnasium import spaces
 from numba import njit
 
 from vegym import rng
+from vegym.envs import schedule
 from vegym.envs.base import Info, KernelCall, State, Task, VegymEnv, VegymVectorEnv
 from vegym.envs.schedule import ScheduledParams
 from vegym.params import Params, invalid, param
@@ -179,6 +180,47 @@ def _observe_kernel(
         _observe_row(i, sine, cosine, omega[i], target[i], energy, target_energy, amplitude, c, obs)
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _target(key: np.uint64, index: int, bounds: tuple[float, float], offset: np.uint64) -> float:
+    """Target amplitude number ``index`` of the episode ``key`` (rad), uniform in ``bounds = (target_min,
+    target_max)``, from the stream ``offset``."""
+    low, high = bounds
+    return low + (high - low) * rng.lane(rng.stream_base(key, offset, np.uint64(index)), 0)
+
+
+@njit(cache=True, nogil=True)
+def _draw_targets(keys: np.ndarray, index: np.ndarray, bounds: tuple[float, float], offset: np.uint64) -> np.ndarray:
+    """:func:`_target` of each key (n,)."""
+    out = np.empty(len(keys))
+    for i in range(len(keys)):
+        out[i] = _target(keys[i], index[i], bounds, offset)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def _after_step_kernel(
+    key: np.ndarray,
+    step: np.ndarray,
+    changes: np.ndarray,
+    last_change: np.ndarray,
+    next_change: np.ndarray,
+    timing: schedule.Timing,
+    bounds: tuple[float, float],
+    target_offset: np.uint64,
+    target: np.ndarray,
+    theta: np.ndarray,
+    omega: np.ndarray,
+    c: np.ndarray,
+    obs: np.ndarray,
+) -> None:
+    """The target changes due at the new step (``step`` not yet counted), in place (:func:`schedule.advance_due`
+    and :func:`_target`), and the observations of the episodes that changed, into those rows of ``obs``."""
+    rows = schedule.advance_due(key, step, changes, last_change, next_change, timing)
+    for i in rows:
+        target[i] = _target(key[i], changes[i], bounds, target_offset)
+    _observe_kernel(rows, theta, omega, target, c, obs)
+
+
 class PendulumPumpTask(Task[PendulumPumpParams]):
     """Batched logic of PendulumPump-v0 (see :class:`PendulumPumpEnv`)."""
 
@@ -189,6 +231,9 @@ class PendulumPumpTask(Task[PendulumPumpParams]):
         super().__init__(params)
         self.physics = params.physics
         self.schedule = params.schedule
+        self._timing = self.schedule.timing
+        self._target_bounds = (params.target_min, params.target_max)
+        self._target_offset = rng.stream_offset(_TARGET_STREAM)
         low = np.array([-1, -1, -1, 0, -1, -1], np.float32)
         self.observation_space = spaces.Box(low, np.ones(6, np.float32), dtype=np.float32)
         self.action_space = spaces.Box(-1.0, 1.0, (1,), np.float32)
@@ -217,8 +262,8 @@ class PendulumPumpTask(Task[PendulumPumpParams]):
 
     def draw_target(self, keys: np.ndarray, index: np.ndarray) -> np.ndarray:
         """Target amplitude number ``index`` (n,) of each episode (rad), uniform in ``[target_min, target_max]``."""
-        p = self.params
-        return rng.uniform_in(keys, _TARGET_STREAM, p.target_min, p.target_max, counter=index)[:, 0]
+        keys, index = np.ascontiguousarray(keys, dtype=np.uint64), np.ascontiguousarray(index, dtype=np.int64)
+        return _draw_targets(keys, index, self._target_bounds, self._target_offset)
 
     def initial_state(self, keys: np.ndarray) -> State:
         p = self.params
@@ -252,8 +297,11 @@ class PendulumPumpTask(Task[PendulumPumpParams]):
     def after_step(self, state: State, out: State) -> None:
         """Hand out the new targets due at this step (``state["step"]`` not yet counted), in place, and observe the
         episodes that changed again."""
-        changed = self.schedule.advance(state, state["step"] + 1, "target", self.draw_target)
-        _observe_kernel(changed, state["theta"], state["omega"], state["target"], self._constants, out["obs"])
+        _after_step_kernel(
+            state["key"], state["step"], state["changes"], state["last_change"], state["next_change"], self._timing,
+            self._target_bounds, self._target_offset, state["target"], state["theta"], state["omega"],
+            self._constants, out["obs"],
+        )  # fmt: skip
 
     def info(self, state: State, out: State) -> Info:
         return {

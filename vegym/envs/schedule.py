@@ -9,17 +9,68 @@ from the episode key, and no change comes after ``last_step`` (so the final dema
 from __future__ import annotations
 
 import math
-from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, ClassVar
 
 import numpy as np
+from numba import njit
 
 from vegym import rng
 from vegym.params import invalid
 
 NO_CHANGE = np.iinfo(np.int64).max
 """``next_change`` of an episode whose schedule has ended."""
+
+Timing = tuple[np.uint64, float, float, float, int]
+"""A schedule as the kernels take it (:attr:`ChangeSchedule.timing`)."""
+
+
+@njit(cache=True, nogil=True, inline="always")
+def change_step(key: np.uint64, index: int, now: int, timing: Timing) -> int:
+    """Step of the change that ends demand number ``index``, handed out at step ``now``, of the episode ``key``
+    (:data:`NO_CHANGE` past the schedule's last step); ``timing`` from :attr:`ChangeSchedule.timing`."""
+    offset, interval_min, interval_max, dt, last_step = timing
+    u = rng.lane(rng.stream_base(key, offset, np.uint64(index)), 0)
+    seconds = interval_min + (interval_max - interval_min) * u
+    at = now + max(np.int64(np.rint(seconds / dt)), 1)  # rint: numpy's round half to even
+    return at if at <= last_step else NO_CHANGE
+
+
+@njit(cache=True, nogil=True)
+def _change_steps(keys: np.ndarray, index: np.ndarray, now: np.ndarray, timing: Timing) -> np.ndarray:
+    out = np.empty(len(keys), np.int64)
+    for i in range(len(keys)):
+        out[i] = change_step(keys[i], index[i], now[i], timing)
+    return out
+
+
+@njit(cache=True, nogil=True, inline="always")
+def advance_due(
+    key: np.ndarray,
+    step: np.ndarray,
+    changes: np.ndarray,
+    last_change: np.ndarray,
+    next_change: np.ndarray,
+    timing: Timing,
+) -> np.ndarray:
+    """For after-step kernels: at the new step ``step + 1``, in place, every episode whose change is due moves on
+    to its next demand number (``changes``), handed out now, and the change after it. Returns the rows that
+    changed (int indices, ascending); the caller draws their demands, number ``changes[row]``."""
+    due = 0
+    for i in range(len(step)):
+        due += step[i] + 1 >= next_change[i]
+    rows = np.empty(due, np.intp)
+    j = 0
+    for i in range(len(step)):
+        if step[i] + 1 >= next_change[i]:
+            rows[j] = i
+            j += 1
+    for i in rows:
+        now = step[i] + 1
+        changes[i] += 1
+        last_change[i] = now
+        next_change[i] = change_step(key[i], changes[i], now, timing)
+    return rows
 
 
 @dataclass(frozen=True)
@@ -47,34 +98,21 @@ class ChangeSchedule:
         last_step = episode_steps - int(math.ceil(final_hold / dt - 1e-9))
         return cls(interval_min, interval_max, dt, last_step, stream)
 
+    @property
+    def timing(self) -> Timing:
+        """``(stream offset, interval_min, interval_max, dt, last_step)``, as the kernels take the schedule."""
+        return rng.stream_offset(self.stream), self.interval_min, self.interval_max, self.dt, self.last_step
+
     def next_change(self, keys: np.ndarray, index: np.ndarray, now: np.ndarray) -> np.ndarray:
         """Step of the change that ends demand number ``index`` (n,), handed out at step ``now`` (n,)."""
-        seconds = rng.uniform_in(keys, self.stream, self.interval_min, self.interval_max, counter=index)
-        at = now + np.maximum(np.round(seconds[:, 0] / self.dt).astype(np.int64), 1)
-        return np.where(at <= self.last_step, at, NO_CHANGE)
+        keys = np.ascontiguousarray(keys, dtype=np.uint64)
+        index, now = np.ascontiguousarray(index, dtype=np.int64), np.ascontiguousarray(now, dtype=np.int64)
+        return _change_steps(keys, index, now, self.timing)
 
     def initial(self, keys: np.ndarray) -> dict[str, np.ndarray]:
         """Schedule state of fresh episodes: demand 0 handed out at step 0."""
         zeros = np.zeros(len(keys), dtype=np.int64)
         return {"changes": zeros, "last_change": zeros.copy(), "next_change": self.next_change(keys, zeros, zeros)}
-
-    def advance(
-        self,
-        state: dict[str, np.ndarray],
-        now: np.ndarray,
-        name: str,
-        draw: Callable[[np.ndarray, np.ndarray], np.ndarray],
-    ) -> np.ndarray:
-        """At step ``now`` (n,), in place: where a change is due, demand ``state[name]`` becomes
-        ``draw(keys, index)`` and the schedule moves on. Returns the rows (int indices) that changed."""
-        changing = np.flatnonzero(now >= state["next_change"])
-        if len(changing):
-            keys, index, at = state["key"][changing], state["changes"][changing] + 1, now[changing]
-            state[name][changing] = draw(keys, index)
-            state["changes"][changing] = index
-            state["last_change"][changing] = at
-            state["next_change"][changing] = self.next_change(keys, index, at)
-        return changing
 
 
 class ScheduledParams:
