@@ -34,6 +34,20 @@ def test_change_steps_are_the_seeded_intervals_rounded_to_steps() -> None:
     steps = schedule.next_change(keys, index, now)
     np.testing.assert_array_equal(steps, reference_change_steps(schedule, keys, index, now))
     assert np.any(steps == NO_CHANGE) and np.any(steps != NO_CHANGE)
+    np.testing.assert_array_equal(schedule.next_change(keys, 2, 5), reference_change_steps(schedule, keys, 2, 5))
+
+
+@pytest.mark.parametrize(("interval", "steps"), [(2.5, 2), (3.5, 4), (4.5, 4)])
+def test_an_interval_half_way_between_steps_rounds_to_the_even_step(interval: float, steps: int) -> None:
+    schedule = ChangeSchedule.planned(interval, interval, 1.0, episode_steps=100, final_hold=0.0, stream=3)
+    keys = rng.seed_keys(np.arange(10))
+    np.testing.assert_array_equal(schedule.next_change(keys, np.arange(10), 7), 7 + steps)
+
+
+def test_counters_of_another_length_than_the_keys_are_refused() -> None:
+    schedule = ChangeSchedule.planned(1.0, 2.0, 0.1, episode_steps=60, final_hold=1.0, stream=3)
+    with pytest.raises(ValueError, match="broadcast"):
+        schedule.next_change(rng.seed_keys(np.arange(20)), np.arange(5), 0)
 
 
 def aircraft_demands(task: aircraft.AircraftTask, keys: np.ndarray, index: np.ndarray) -> np.ndarray:
@@ -62,7 +76,7 @@ def pendulum_targets(task: pendulum_pump.PendulumPumpTask, keys: np.ndarray, ind
         ("vegym/PendulumPump-v0", "target", pendulum_targets),
     ],
 )
-def test_every_episode_holds_the_demand_of_its_number_and_awaits_the_change_after_it(
+def test_changes_come_when_due_and_each_episode_holds_the_demand_of_its_number_and_awaits_the_next(
     env_id: str, name: str, reference: Callable[[Any, np.ndarray, np.ndarray], np.ndarray]
 ) -> None:
     env = gym.make_vec(env_id, num_envs=300, vectorization_mode="vector_entry_point")
@@ -71,9 +85,14 @@ def test_every_episode_holds_the_demand_of_its_number_and_awaits_the_change_afte
     task, state = env.unwrapped.task, env.unwrapped.state
     changed = 0
     for _ in range(task.params.episode_steps + 5):  # past the end: the restarts draw demand 0 again
-        before = state["changes"].copy()
+        before, due = state["changes"].copy(), state["next_change"].copy()
         env.step(env.action_space.sample())
-        changed += int(np.sum(state["changes"] > before))
+        now = state["step"]
+        going_on = now > 0  # not restarted by this step
+        changing = going_on & (due <= now)  # a change exactly when due, to the next demand number, handed out now
+        np.testing.assert_array_equal(state["changes"][going_on], (before + changing)[going_on])
+        np.testing.assert_array_equal(state["last_change"][changing], now[changing])
+        changed += int(np.sum(changing))
         index = state["changes"]
         np.testing.assert_array_equal(state[name], reference(task, state["key"], index))
         np.testing.assert_array_equal(

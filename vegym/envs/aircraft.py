@@ -289,7 +289,9 @@ def _observe_kernel(
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _demand(key: np.uint64, index: int, ranges: np.ndarray, offset: np.uint64) -> tuple[float, float, float]:
+def _demand(
+    key: np.uint64, index: int, ranges: tuple[float, float, float, float], offset: np.uint64
+) -> tuple[float, float, float]:
     """Demand number ``index`` of the episode ``key``: ``(altitude, airspeed, heading)``, uniform in the ranges
     ``(altitude_min, altitude_max, speed_demand_min, speed_demand_max)`` and in [-pi, pi), from the stream
     ``offset``."""
@@ -302,7 +304,9 @@ def _demand(key: np.uint64, index: int, ranges: np.ndarray, offset: np.uint64) -
 
 
 @njit(cache=True, nogil=True)
-def _draw_demands(keys: np.ndarray, index: np.ndarray, ranges: np.ndarray, offset: np.uint64) -> np.ndarray:
+def _draw_demands(
+    keys: np.ndarray, index: np.ndarray, ranges: tuple[float, float, float, float], offset: np.uint64
+) -> np.ndarray:
     """:func:`_demand` of each key (n, 3)."""
     out = np.empty((len(keys), 3))
     for i in range(len(keys)):
@@ -318,7 +322,7 @@ def _after_step_kernel(
     last_change: np.ndarray,
     next_change: np.ndarray,
     timing: schedule.Timing,
-    ranges: np.ndarray,
+    ranges: tuple[float, float, float, float],
     demand_offset: np.uint64,
     demand: np.ndarray,
     position: np.ndarray,
@@ -353,8 +357,11 @@ class AircraftTask(Task[AircraftEnvParams]):
         self._constants = np.array([getattr(params, name) for name in STEP_CONSTANTS], dtype=np.float64)
         self._gust_offset = rng.stream_offset(_GUST_STREAM)
         self._demand_offset = rng.stream_offset(_DEMAND_STREAM)
-        self._demand_ranges = np.array(
-            [params.altitude_min, params.altitude_max, params.speed_demand_min, params.speed_demand_max]
+        self._demand_ranges = (
+            params.altitude_min,
+            params.altitude_max,
+            params.speed_demand_min,
+            params.speed_demand_max,
         )
         self._timing = self.schedule.timing
 
@@ -365,8 +372,7 @@ class AircraftTask(Task[AircraftEnvParams]):
     def draw_demand(self, keys: np.ndarray, index: np.ndarray) -> np.ndarray:
         """Demand number ``index`` (n,) of each episode: ``(altitude, airspeed, heading)`` (n, 3), uniform in the
         demand ranges and in [-pi, pi)."""
-        keys, index = np.ascontiguousarray(keys, dtype=np.uint64), np.ascontiguousarray(index, dtype=np.int64)
-        return _draw_demands(keys, index, self._demand_ranges, self._demand_offset)
+        return _draw_demands(*schedule.per_key(keys, index), self._demand_ranges, self._demand_offset)
 
     def initial_state(self, keys: np.ndarray) -> State:
         p = self.params

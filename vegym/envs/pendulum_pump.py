@@ -262,8 +262,7 @@ class PendulumPumpTask(Task[PendulumPumpParams]):
 
     def draw_target(self, keys: np.ndarray, index: np.ndarray) -> np.ndarray:
         """Target amplitude number ``index`` (n,) of each episode (rad), uniform in ``[target_min, target_max]``."""
-        keys, index = np.ascontiguousarray(keys, dtype=np.uint64), np.ascontiguousarray(index, dtype=np.int64)
-        return _draw_targets(keys, index, self._target_bounds, self._target_offset)
+        return _draw_targets(*schedule.per_key(keys, index), self._target_bounds, self._target_offset)
 
     def initial_state(self, keys: np.ndarray) -> State:
         p = self.params

@@ -4,6 +4,9 @@ A task whose demand changes keeps three integer arrays in its state: ``changes``
 minus one), ``last_change`` (step of the latest change) and ``next_change`` (step of the coming change, or
 :data:`NO_CHANGE`). Intervals between changes are uniform in ``[interval_min, interval_max]`` seconds, drawn
 from the episode key, and no change comes after ``last_step`` (so the final demand can be flown).
+
+:func:`change_step` and :func:`advance_due` are inlined into the tasks' after-step kernels, whose numba cache does
+not see edits to them: clear ``__pycache__`` after changing them.
 """
 
 from __future__ import annotations
@@ -25,6 +28,13 @@ Timing = tuple[np.uint64, float, float, float, int]
 """A schedule as the kernels take it (:attr:`ChangeSchedule.timing`)."""
 
 
+def per_key(keys: np.ndarray, *values: np.ndarray | int) -> tuple[np.ndarray, ...]:
+    """``keys`` as a C-contiguous uint64 array (n,), then each of ``values`` (int counters) broadcast to one per key
+    as C-contiguous int64, as the kernels take them; ``ValueError`` for a value of another length."""
+    keys = np.ascontiguousarray(keys, dtype=np.uint64)
+    return keys, *(np.ascontiguousarray(np.broadcast_to(np.asarray(v, dtype=np.int64), keys.shape)) for v in values)
+
+
 @njit(cache=True, nogil=True, inline="always")
 def change_step(key: np.uint64, index: int, now: int, timing: Timing) -> int:
     """Step of the change that ends demand number ``index``, handed out at step ``now``, of the episode ``key``
@@ -38,6 +48,7 @@ def change_step(key: np.uint64, index: int, now: int, timing: Timing) -> int:
 
 @njit(cache=True, nogil=True)
 def _change_steps(keys: np.ndarray, index: np.ndarray, now: np.ndarray, timing: Timing) -> np.ndarray:
+    """:func:`change_step` of each key (n,)."""
     out = np.empty(len(keys), np.int64)
     for i in range(len(keys)):
         out[i] = change_step(keys[i], index[i], now[i], timing)
@@ -105,9 +116,7 @@ class ChangeSchedule:
 
     def next_change(self, keys: np.ndarray, index: np.ndarray, now: np.ndarray) -> np.ndarray:
         """Step of the change that ends demand number ``index`` (n,), handed out at step ``now`` (n,)."""
-        keys = np.ascontiguousarray(keys, dtype=np.uint64)
-        index, now = np.ascontiguousarray(index, dtype=np.int64), np.ascontiguousarray(now, dtype=np.int64)
-        return _change_steps(keys, index, now, self.timing)
+        return _change_steps(*per_key(keys, index, now), self.timing)
 
     def initial(self, keys: np.ndarray) -> dict[str, np.ndarray]:
         """Schedule state of fresh episodes: demand 0 handed out at step 0."""
