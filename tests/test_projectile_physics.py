@@ -118,6 +118,31 @@ def test_firing_solution_reports_an_unreachable_target() -> None:
     assert not reachable[0] and np.isnan(flight_time[0])
 
 
+@pytest.mark.parametrize("height", [0.0, 5.0, 20.0, 200.0])
+def test_unreachable_target_gets_the_max_range_shot_from_the_launch_height(height: float) -> None:
+    params, v = ProjectileParams(gravity=G), 10.0
+    delta = np.array([[0.0, -height, 500.0]])  # far out of range, along +z
+    elevation, azimuth, _, reachable = projectile.firing_solution(delta, np.zeros(3), v, params)
+    assert not reachable[0] and azimuth[0] == pytest.approx(np.pi / 2, abs=1e-12)
+    p0 = np.array([[0.0, height, 0.0]])
+    landed, _ = projectile.impact_point(
+        p0, projectile.launch_velocity(elevation, azimuth, np.array([v])), np.zeros(3), params
+    )
+    assert landed[0, 2] == pytest.approx(projectile.max_range(v, height, params), rel=1e-9)
+    others = np.radians(np.linspace(0.0, 90.0, 9001))
+    v0 = projectile.launch_velocity(others, np.full_like(others, np.pi / 2), np.full_like(others, v))
+    reach, _ = projectile.impact_point(np.broadcast_to(p0, v0.shape), v0, np.zeros(3), params)
+    assert reach[:, 2].max() <= landed[0, 2] * (1.0 + 1e-12)
+
+
+def test_max_range_elevation_is_45_degrees_from_the_landing_level_and_vertical_below_it() -> None:
+    params = ProjectileParams(gravity=G)
+    elevation = projectile.max_range_elevation(np.array([10.0, 10.0, 10.0]), np.array([0.0, -100.0, -5.0]), params)
+    assert elevation[0] == pytest.approx(np.pi / 4, abs=1e-12)
+    assert elevation[1] == np.pi / 2  # the landing level above the apex of a vertical shot
+    assert elevation[2] == pytest.approx(np.arcsin(10.0 / np.sqrt(2.0 * (100.0 - 5.0 * G))), abs=1e-12)
+
+
 def test_batched_impact_equals_looped_bit_for_bit() -> None:
     params = ProjectileParams(gravity=G, radius=0.05)
     p0, v0, wind = random_shots(32, seed=4)

@@ -401,7 +401,7 @@ class ProjectileEnv(VegymEnv[ProjectileEnvParams]):
     Launch height, target distance, target bearing, wind speed and wind direction uniform in their ranges.
     Reachable envelope: every target is reachable at ``speed_max``, since ``target_distance_max`` must not
     exceed ``reachable_distance``, the wind-free maximum range at ``speed_max - wind_speed_max`` from the
-    lowest launch height (with the defaults 63.6 m >= 60 m).
+    lowest launch height (with the defaults 64.7 m >= 60 m).
 
     ## Episode End
     Terminated after the shot (one step). ``info["is_success"]``: the shot is a hit.

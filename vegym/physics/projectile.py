@@ -139,7 +139,8 @@ def firing_solution(
     whose real positive roots are found batched (eigenvalues of the companion matrices, then two Newton
     polishes). The smallest root is direct (low-angle) fire, the largest a lob. The launch direction is then
     ``d = (delta - w T - a T^2) / (v T)``. Where no positive root exists the target is out of range at this
-    speed: the mask is False and the returned angles are the wind-free 45-degree shot toward the target.
+    speed: the mask is False and the returned angles are the wind-free maximum-range shot toward the target
+    (:func:`max_range_elevation` from the height ``-delta_y`` above it).
     """
     delta = np.atleast_2d(np.asarray(delta, dtype=np.float64))
     wind = np.broadcast_to(np.asarray(wind, dtype=np.float64), delta.shape)
@@ -177,7 +178,8 @@ def firing_solution(
     elevation = np.arcsin(np.clip(direction[:, 1], -1.0, 1.0))
     azimuth = np.arctan2(direction[:, 2], direction[:, 0])
     bearing = np.arctan2(delta[:, 2], delta[:, 0])
-    elevation = np.where(reachable, elevation, np.pi / 4)
+    fallback = max_range_elevation(speed, -delta[:, 1], params)
+    elevation = np.where(reachable, elevation, fallback)
     azimuth = np.where(reachable, azimuth, bearing)
     return elevation, azimuth, np.where(reachable, flight_time, np.nan), reachable
 
@@ -185,7 +187,18 @@ def firing_solution(
 def max_range(speed: float, height: float, params: ProjectileParams) -> float:
     """Greatest wind-free horizontal range (m) at ``speed`` from ``height`` above the landing level.
 
-    Closed form: ``(v / g) sqrt(v^2 + 2 g h)`` at the elevation ``asin(v / sqrt(2 (v^2 + g h)))``.
+    Closed form: ``(v / g) sqrt(v^2 + 2 g h)`` at the elevation :func:`max_range_elevation`.
     """
     g = params.gravity
     return float(speed / g * np.sqrt(speed * speed + 2.0 * g * height))
+
+
+def max_range_elevation(speed: np.ndarray, height: np.ndarray, params: ProjectileParams) -> np.ndarray:
+    """Elevation (rad) of the greatest wind-free range at ``speed`` (m/s) from ``height`` (m) above the landing
+    level: ``asin(v / sqrt(2 (v^2 + g h)))``, 45 degrees from the landing level, flatter from above it; straight up
+    (pi/2) where the landing level is at or above the apex of a vertical shot (``h <= -v^2 / (2 g)``)."""
+    v, h = np.asarray(speed, dtype=np.float64), np.asarray(height, dtype=np.float64)
+    square = 2.0 * (v * v + params.gravity * h)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        sine = np.where(square > 0.0, v / np.sqrt(np.maximum(square, 0.0)), 1.0)
+    return np.arcsin(np.minimum(sine, 1.0))
