@@ -476,6 +476,52 @@ def test_every_parameter_is_a_keyword_that_lands_in_the_spec_and_is_range_checke
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)
+def test_infinite_and_oversized_parameters_raise_value_errors_naming_them(env_id: str) -> None:
+    params_cls = gym.make(env_id).unwrapped.task.params_cls
+    for f in dataclasses.fields(params_cls):
+        if isinstance(f.default, bool):
+            continue
+        if isinstance(f.default, int):
+            with pytest.raises(ValueError, match=f"{f.name}=.*64-bit"):
+                params_cls(**{f.name: 2**63})
+            continue
+        for infinite in (math.inf, -math.inf, 10**400):
+            with pytest.raises(ValueError, match=f"{f.name}=.* allowed range"):
+                params_cls(**{f.name: infinite})
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_numpy_numbers_are_taken_as_parameters_and_stored_as_python_numbers(env_id: str) -> None:
+    params_cls = gym.make(env_id).unwrapped.task.params_cls
+    numpy_types = {bool: np.bool_, int: np.int64, float: np.float32}
+    defaults = {f.name: f.default for f in dataclasses.fields(params_cls)}
+    given = {name: numpy_types[type(value)](value) for name, value in defaults.items()}
+    params = params_cls(**given)
+    for name, value in defaults.items():
+        assert type(getattr(params, name)) is type(value)
+        assert getattr(params, name) == pytest.approx(value, rel=1e-7)  # float32 rounds the floats
+
+
+def test_vector_env_takes_numpy_counts_and_refuses_non_integer_ones() -> None:
+    vector_cls = type(gym.make_vec(ENV_IDS[0], num_envs=1, vectorization_mode="vector_entry_point"))
+    vec = vector_cls(num_envs=np.int64(3), max_episode_steps=np.int32(5))
+    assert (vec.num_envs, vec.max_episode_steps) == (3, 5) and type(vec.num_envs) is int
+    for name, bad in [("num_envs", 2.0), ("num_envs", True), ("max_episode_steps", 2.5), ("max_episode_steps", "3")]:
+        with pytest.raises(ValueError, match=f"{name}="):
+            vector_cls(**{"num_envs": 2, name: bad})
+
+
+def test_infinite_bounds_are_allowed_only_where_a_parameter_says_so() -> None:
+    from vegym.physics.aircraft import AircraftParams
+
+    assert AircraftParams(floor_altitude=-math.inf).floor_altitude == -math.inf
+    assert AircraftParams().ceiling_altitude == math.inf
+    assert "ceiling_altitude (default inf in [-inf, inf])" in AircraftParams.describe()
+    with pytest.raises(ValueError, match=r"wind_x=inf is outside the allowed range \(-inf, inf\)"):
+        AircraftParams(wind_x=math.inf)
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
 def test_rgb_array_frames_are_uint8_images_at_the_control_rate(env_id: str) -> None:
     env = gym.make(env_id, render_mode="rgb_array")
     assert env.metadata["render_fps"] == env.unwrapped.task.control_rate

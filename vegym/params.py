@@ -10,8 +10,11 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 import typing
 from typing import Any, ClassVar
+
+import numpy as np
 
 
 def param(
@@ -22,22 +25,29 @@ def param(
     high: float = math.inf,
     low_open: bool = False,
     high_open: bool = False,
+    infinite: bool = False,
 ) -> Any:
     """A dataclass field with a default, a description and an allowed interval.
 
-    ``low_open``/``high_open`` exclude the bound itself (``(low, high]`` etc.).
+    ``low_open``/``high_open`` exclude the bound itself (``(low, high]`` etc.). An infinite bound is open (the
+    values are finite) unless ``infinite``: then ``inf`` (or ``-inf``) is allowed there, e.g. "no ceiling".
     """
     return dataclasses.field(
         default=default,
-        metadata={"doc": doc, "low": low, "high": high, "low_open": low_open, "high_open": high_open},
-    )
+        metadata={
+            "doc": doc, "low": low, "high": high, "low_open": low_open or (low == -math.inf and not infinite),
+            "high_open": high_open or (high == math.inf and not infinite),
+        },
+    )  # fmt: skip
 
 
 def interval_text(meta: typing.Mapping[str, Any]) -> str:
     """The allowed interval of a field as text, e.g. ``(0, inf)`` or ``[0, 1]``."""
-    left = "(" if meta["low_open"] or meta["low"] == -math.inf else "["
-    right = ")" if meta["high_open"] or meta["high"] == math.inf else "]"
-    return f"{left}{meta['low']:g}, {meta['high']:g}{right}"
+    return f"{'(' if meta['low_open'] else '['}{meta['low']:g}, {meta['high']:g}{')' if meta['high_open'] else ']'}"
+
+
+INT64_RANGE = (-(2**63), 2**63 - 1)
+"""The integers a parameter may hold: those of the kernels' int64."""
 
 
 class Params:
@@ -56,19 +66,30 @@ class Params:
             value = getattr(self, f.name)
             kind = hints[f.name]
             if kind is bool:
-                if not isinstance(value, bool):
+                if not isinstance(value, bool | np.bool_):
                     raise ValueError(f"{f.name}={value!r} must be a bool (True or False)")
+                object.__setattr__(self, f.name, bool(value))
                 continue
             if kind is int:
-                if isinstance(value, bool) or not isinstance(value, int):
+                if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Integral):
                     raise ValueError(f"{f.name}={value!r} must be an integer in {interval_text(f.metadata)}")
+                value = int(value)
+                if not INT64_RANGE[0] <= value <= INT64_RANGE[1]:
+                    raise ValueError(
+                        f"{f.name}={value!r} is outside the 64-bit integers [{INT64_RANGE[0]}, {INT64_RANGE[1]}]"
+                    )
             elif kind is float:
-                if isinstance(value, bool) or not isinstance(value, (int, float)):
+                if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
                     raise ValueError(f"{f.name}={value!r} must be a real number in {interval_text(f.metadata)}")
-                value = float(value)
-                object.__setattr__(self, f.name, value)
+                try:
+                    value = float(value)
+                except OverflowError:  # an integer beyond the floats
+                    raise ValueError(
+                        f"{f.name}={value!r} is outside the allowed range {interval_text(f.metadata)}"
+                    ) from None
             else:
                 continue
+            object.__setattr__(self, f.name, value)
             if "low" in f.metadata:
                 self._check_range(f.name, value, f.metadata)
         self.validate()

@@ -15,6 +15,7 @@ from __future__ import annotations
 import abc
 import importlib
 import itertools
+import numbers
 import os
 from collections.abc import Callable, Mapping
 from concurrent.futures import ThreadPoolExecutor
@@ -525,6 +526,13 @@ def _in_chunks(n: int, run: Callable[[slice], None]) -> None:
             future.result()
 
 
+def _count(name: str, value: Any) -> int:
+    """``value`` as a Python int of at least 1 (any integer type but bool); ValueError naming ``name`` otherwise."""
+    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Integral) or value < 1:
+        raise ValueError(f"{name}={value!r} is outside the allowed range: integers in [1, inf)")
+    return int(value)
+
+
 class VegymVectorEnv(VectorEnv, Generic[P]):
     """A native Gymnasium vector env running a :class:`Task` on ``num_envs`` episodes at once.
 
@@ -541,10 +549,8 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
     def __init__(
         self, num_envs: int = 1, max_episode_steps: int | None = None, render_mode: str | None = None, **params: Any
     ) -> None:
-        if isinstance(num_envs, bool) or not isinstance(num_envs, int) or num_envs < 1:
-            raise ValueError(f"num_envs={num_envs!r} is outside the allowed range [1, inf)")
-        if max_episode_steps is not None and max_episode_steps < 1:
-            raise ValueError(f"max_episode_steps={max_episode_steps!r} is outside the allowed range [1, inf)")
+        num_envs = _count("num_envs", num_envs)
+        max_episode_steps = None if max_episode_steps is None else _count("max_episode_steps", max_episode_steps)
         if render_mode is not None:
             raise ValueError(f"render_mode={render_mode!r}: the vector env does not render; render a single env")
         self.task = self.task_cls(self.task_cls.params_cls(**params))

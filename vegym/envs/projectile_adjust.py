@@ -28,14 +28,17 @@ the line of fire."""
 class ProjectileAdjustParams(ProjectileEnvParams):
     """Parameters of ProjectileAdjust-v0: those of Projectile-v0 and the number of shots."""
 
+    wind_speed_max: float = param(
+        5.0, "largest horizontal wind speed (m/s); direction uniform; the wind to find", low=0.0, low_open=True
+    )
     max_shots: int = param(
         3, "shots per episode at the same target (the episode ends earlier on a hit)", low=2, high=16
     )
 
     def validate(self) -> None:
-        super().validate()
-        if self.wind_speed_max <= 0.0:
+        if self.wind_speed_max >= self.speed_max:  # before Projectile-v0's check, whose range includes 0
             raise invalid("wind_speed_max", self.wind_speed_max, f"(0, speed_max={self.speed_max})")
+        super().validate()
 
     @property
     def memory(self) -> int:
