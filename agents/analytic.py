@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from vegym.envs.aircraft import AircraftEnvParams, AircraftTask
-from vegym.envs.base import Task
+from vegym.envs.base import Task, VegymEnv
 from vegym.envs.billiards import BilliardsParams, BilliardsTask, ghost_ball_shot
 from vegym.envs.bouncing_ball import BouncingBallParams, BouncingBallTask, optimal_apexes
 from vegym.envs.gear_train import GearTrainParams, GearTrainTask
@@ -76,6 +76,8 @@ class BouncingBallOracle:
     """
 
     def __init__(self, env: Any, episode_length: int | None = None) -> None:
+        if not isinstance(env.unwrapped, VegymEnv):
+            raise ValueError(f"BouncingBallOracle reads one episode's targets: it needs a single env, not {env!r}")
         self.env = env.unwrapped
         spec_length = env.spec.max_episode_steps if env.spec is not None else None
         self.episode_length = int(episode_length or spec_length or 10)
@@ -90,14 +92,17 @@ class BouncingBallOracle:
         deterministic: bool = False,
     ) -> tuple[np.ndarray, Any]:
         p = self.params
+        obs = np.asarray(observation, dtype=np.float64)
+        if obs.ndim > 1 and obs.shape[0] != 1:
+            raise ValueError(f"BouncingBallOracle acts for its one env; got a batch of {obs.shape[0]} observations")
         step = int(self.env.state["step"][0])
         if step == 0:
             targets = self.env.task.targets(self.env.state["key"], self.episode_length)[0]
             self._plan = optimal_apexes(targets, p.drop_height, p.radius)
-        speed = float(np.asarray(observation, dtype=np.float64).reshape(-1)[0])
+        speed = float(obs.reshape(-1)[0])
         target = (self._plan[step] - p.radius) / p.height_scale
         e = np.clip(np.sqrt(target) / speed, 0.0, 1.0) if speed > 0 else 0.0
-        return np.array([2.0 * e - 1.0], dtype=np.float32), state
+        return np.full((*obs.shape[:-1], 1), 2.0 * e - 1.0, dtype=np.float32), state
 
 
 class ProjectileFiringSolution(AnalyticController):

@@ -88,30 +88,40 @@ def retrain(
     log: Callable[[str], None] = print,
 ) -> dict[str, Path]:
     """Train every configured algorithm of ``algos`` on ``env_id`` afresh, one run per seed, into
-    ``<models_dir>/<Env-v0>/<algo>/seed_<k>``; RuntimeError if a seed fails, KeyboardInterrupt if stopped."""
+    ``<models_dir>/<Env-v0>/<algo>/seed_<k>``; RuntimeError if a seed fails, KeyboardInterrupt if stopped.
+
+    The runs are trained beside it, in ``<algo>.retraining/``, and replace the agent only when every seed has
+    finished: a failed or interrupted retraining leaves the agent as it was (and its partial runs there)."""
     agents = {}
     for algo in configured_algos(env_id, algos):
         out = Path(models_dir) / env_name(env_id) / algo
-        shutil.rmtree(out, ignore_errors=True)
+        staging = out.with_name(f"{algo}.retraining")
+        shutil.rmtree(staging, ignore_errors=True)
         overrides = {} if timesteps is None else {"n_timesteps": timesteps}
         config = load_config(CONFIG_DIR / f"{algo}.yml", env_id, algo, overrides)
-        commands = {s: train_command(env_id, algo, seed_dir(out, s), timesteps, seed=s) for s in seeds}
+        commands = {
+            s: train_command(env_id, algo, seed_dir(out, s), timesteps, seed=s) for s in seeds
+        }  # the recipe, kept
         outcomes = train_seeds(
             seed_configs(config, seeds),
-            out,
+            staging,
             jobs=jobs,
             commands=commands,
             progress_bar=progress_bar,
             log=log,
         )
+        kept = f"{_display(out)} is unchanged; the partial runs are in {_display(staging)}"
         if any(o.result is not None and o.result.interrupted for o in outcomes):
+            log(f"{env_id} {algo}: retraining interrupted; {kept}")
             raise KeyboardInterrupt
         failed = [o for o in outcomes if o.error is not None]
         if failed:
-            raise RuntimeError(f"{env_id} {algo}: seed {failed[0].seed} failed: {failed[0].error}")
+            raise RuntimeError(f"{env_id} {algo}: seed {failed[0].seed} failed: {failed[0].error} ({kept})")
         for seed in seeds:
             for name in BY_PRODUCTS:
-                shutil.rmtree(seed_dir(out, seed) / name, ignore_errors=True)
+                shutil.rmtree(seed_dir(staging, seed) / name, ignore_errors=True)
+        shutil.rmtree(out, ignore_errors=True)
+        staging.rename(out)
         agents[algo] = out
     return agents
 

@@ -178,6 +178,19 @@ def test_optimum_beats_myopic_everywhere_and_strictly_somewhere_and_both_beat_ra
     assert myopic.mean() > random.mean() + 1.0 and oracle.mean() > myopic.mean()
 
 
+def test_oracle_acts_for_one_single_env_and_refuses_batches_and_vector_envs() -> None:
+    env = gym.make(ENV_ID)
+    obs, _ = env.reset(seed=5)
+    oracle = BouncingBallOracle(env)
+    single, _ = oracle.predict(obs)
+    row, _ = oracle.predict(obs[None])
+    assert single.shape == (1,) and row.shape == (1, 1) and row[0, 0] == single[0]
+    with pytest.raises(ValueError, match="batch of 4"):
+        oracle.predict(np.stack([obs] * 4))
+    with pytest.raises(ValueError, match="single env"):
+        BouncingBallOracle(gym.make_vec(ENV_ID, num_envs=4, vectorization_mode="vector_entry_point"))
+
+
 def test_controller_predicts_batches_like_single_observations() -> None:
     env = gym.make_vec(ENV_ID, num_envs=16, vectorization_mode="vector_entry_point")
     obs, _ = env.reset(seed=3)
