@@ -125,7 +125,7 @@ def _load_train_config(args: argparse.Namespace, env_id: str, seed: int | None) 
 def _train_seeds(args: argparse.Namespace, env_id: str, out: Path) -> int:
     """``vegym train --seeds``: one run per seed in ``out/seed_<k>``, ``--jobs`` processes at a time."""
     from agents.compare import train_command
-    from agents.multiseed import resumed_configs, seed_configs, train_seeds
+    from agents.multiseed import NOT_STARTED, resumed_configs, seed_configs, train_seeds
     from agents.training import seed_dir
 
     if args.seed is not None:
@@ -154,14 +154,37 @@ def _train_seeds(args: argparse.Namespace, env_id: str, out: Path) -> int:
         progress_bar=not args.no_progress,
         log=say,
     )
-    failed = [o.seed for o in outcomes if o.error is not None]
+    failed = [o.seed for o in outcomes if o.error is not None and o.error != NOT_STARTED]
+    not_started = [o.seed for o in outcomes if o.error == NOT_STARTED]
     interrupted = [o.seed for o in outcomes if o.result is not None and o.result.interrupted]
     done = [o.seed for o in outcomes if o.ok]
     say(f"trained seeds {done or 'none'}" + (f"; failed: {failed}" if failed else ""))
-    if interrupted:
-        say(f"interrupted seeds {interrupted} saved their models; continue with --resume --seeds ...")
+    if interrupted or not_started:
+        if interrupted:
+            say(f"interrupted seeds {interrupted} saved their models")
+        if not_started:
+            say(f"seeds {not_started} did not start")
+        base = ["vegym", "train", "--env", env_name(env_id), "--algo", args.algo, "--out", str(out)]
+        to_resume = interrupted + (not_started if args.resume else [])  # resumed runs that did not start still are
+        if to_resume:
+            say(f"continue with: {shlex.join([*base, '--resume', '--seeds', ','.join(map(str, to_resume))])}")
+        if not_started and not args.resume:
+            options = [
+                *(["--config", args.config] if args.config else []),
+                *(["--timesteps", str(args.timesteps)] if args.timesteps else []),
+            ]
+            say(f"train the others with: {shlex.join([*base, *options, '--seeds', ','.join(map(str, not_started))])}")
         return 130
     return 1 if failed else 0
+
+
+def _check_output(path: Path, suffix: str | None = None) -> None:
+    """Refuse an output file that could not be written (or not in the format of ``suffix``), before the work that
+    makes it (ValueError)."""
+    if suffix is not None and path.suffix.lower() != suffix:
+        raise ValueError(f"{path}: the file name must end in {suffix}")
+    if path.is_dir() or not path.parent.is_dir():
+        raise ValueError(f"{path}: {'it is a directory' if path.is_dir() else f'no directory {path.parent}'}")
 
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
@@ -169,6 +192,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     from agents.compare import TABLE_COLUMNS, table_rows
 
     env_id = resolve_env_id(args.env)
+    if args.json:
+        _check_output(Path(args.json))
     name, factory, config = agent_factory(args.agent, env_id, args.seed)
     env_kwargs = config.env_kwargs if config is not None else {}
     results = evaluate_agents(env_id, {name: factory}, args.episodes, args.seed, env_kwargs)
@@ -260,6 +285,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 def cmd_demo(args: argparse.Namespace) -> int:
     """Show episodes on screen, or save one as a GIF."""
     env_id = resolve_env_id(args.env)
+    if args.gif:
+        _check_output(Path(args.gif), ".gif")
     name, factory, config = agent_factory(args.agent, env_id, args.seed)
     env_kwargs = config.env_kwargs if config is not None else {}
     if isinstance(factory, Mapping):
@@ -417,7 +444,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (ConfigError, ValueError) as exc:
         say(f"error: {exc}", "red")
         return 2
-    except RuntimeError as exc:
+    except (RuntimeError, OSError) as exc:
         say(f"error: {exc}", "red")
         return 1
     except KeyboardInterrupt:

@@ -24,13 +24,13 @@ from agents.config import ALGOS, CONFIG_DIR, env_name, load_config, read_yaml
 from agents.evaluation import EVAL_SEED, EvalResult, SeededFactories, agent_factories, evaluate_agents, load_seeded
 from agents.multiseed import seed_configs, train_seeds
 from agents.plots import save_episode_gif, save_score_chart, save_trajectory_plot
-from agents.training import CHECKPOINT_DIR, seed_dir, seed_runs
+from agents.training import CHECKPOINT_DIR, EVAL_DIR, seed_dir, seed_runs
 
 PRETRAINED_DIR = Path(__file__).resolve().parent / "pretrained"
 """The shipped learned agents: ``<Env-v0>/<algo>/``."""
 DEFAULT_SEEDS = (0, 1, 2)
 """Training seeds of a retrained agent (as of the shipped core agents)."""
-BY_PRODUCTS = (CHECKPOINT_DIR, "eval", "tb")
+BY_PRODUCTS = (CHECKPOINT_DIR, EVAL_DIR, "tb")
 """Training by-products a retrained shipped agent does not keep."""
 
 

@@ -3,8 +3,8 @@
 Each seed trains into its own run directory ``<out>/seed_<k>/`` (:func:`agents.training.seed_dir`) exactly as a
 single ``vegym train --seed k`` would, and reports its progress to the parent, which shows one progress line per
 seed. A seed that fails is reported with its error and the others go on. Ctrl-C reaches every worker (same
-process group): each saves its model at the next step, as a single run does; no seed that has not started is
-started afterwards.
+process group) or, sent to the parent alone, is passed on to them: each saves its model at the next step, as a
+single run does; no seed that has not started is started afterwards.
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from stable_baselines3.common.callbacks import BaseCallback
 
 from agents.config import TrainConfig, with_overrides
-from agents.training import TrainResult, resume_config, seed_dir, train
+from agents.training import TrainResult, latest_model, resume_config, seed_dir, train
 
 REPORT_EVERY_S = 1.0
 """Seconds between a worker's progress reports."""
@@ -61,8 +61,15 @@ class _ReportProgress(BaseCallback):
         return True
 
 
-def _train_seed(config: TrainConfig, out: Path, resume: bool, command: str | None, threads: int, channel: Any) -> None:
-    """Worker process: train one seed, then put ``("done", seed, result)`` or ``("failed", seed, error)``."""
+NOT_STARTED = "not started (interrupted)"
+"""The error of a seed that an interruption kept from training."""
+
+
+def _train_seed(
+    config: TrainConfig, out: Path, resume: bool, command: str | None, threads: int, channel: Any, stop: Any
+) -> None:
+    """Worker process: train one seed, then put ``("done", seed, result)`` or ``("failed", seed, error)``; setting
+    the event ``stop`` stops it as Ctrl-C does."""
     try:
         torch.set_num_threads(threads)
         result = train(
@@ -72,10 +79,11 @@ def _train_seed(config: TrainConfig, out: Path, resume: bool, command: str | Non
             progress_bar=False,
             command=command,
             callbacks=[_ReportProgress(config.seed, channel)],
+            stop=stop,
         )
         channel.put(("done", config.seed, result))
     except KeyboardInterrupt:
-        channel.put(("failed", config.seed, "interrupted before training started"))
+        channel.put(("failed", config.seed, NOT_STARTED))
     except Exception as exc:  # reported to the parent, which carries on with the other seeds
         detail = "".join(traceback.format_exception_only(exc)).strip()
         channel.put(("failed", config.seed, f"{detail}\n{traceback.format_exc()}"))
@@ -113,8 +121,10 @@ def train_seeds(
     """Train every seed's config into ``out/seed_<k>`` in worker processes, ``jobs`` at a time."""
     if jobs < 1:
         raise ValueError(f"jobs={jobs!r} must be at least 1")
+    if latest_model(Path(out)) is not None:
+        raise ValueError(f"{out} holds a single training run (model.zip): choose another --out for seed_<k>/ runs")
     context = mp.get_context("spawn")
-    channel = context.Queue()
+    channel, stop = context.Queue(), context.Event()
     pending = list(configs)
     running: dict[int, BaseProcess] = {}
     outcomes: dict[int, SeedOutcome] = {}
@@ -132,7 +142,7 @@ def train_seeds(
                 while pending and len(running) < jobs and not stopping:
                     seed = pending[0]
                     command = (commands or {}).get(seed)
-                    args = (configs[seed], seed_dir(out, seed), resume, command, threads, channel)
+                    args = (configs[seed], seed_dir(out, seed), resume, command, threads, channel, stop)
                     process = context.Process(target=_train_seed, args=args, name=f"vegym-train-seed-{seed}")
                     process.start()
                     running[seed] = process
@@ -144,9 +154,10 @@ def train_seeds(
                 if stopping:
                     raise
                 stopping = True
+                stop.set()  # for workers that the Ctrl-C did not reach (a signal to this process alone)
                 log("interrupted: the running seeds save their models; Ctrl-C again to abort")
         for seed in pending:
-            outcomes[seed] = SeedOutcome(seed, error="not started (interrupted)")
+            outcomes[seed] = SeedOutcome(seed, error=NOT_STARTED)
     return [outcomes[s] for s in configs]
 
 

@@ -12,6 +12,7 @@ below one agent directory (:func:`seed_dir`, :func:`seed_runs`; trained in paral
 from __future__ import annotations
 
 import importlib.util
+import inspect
 import json
 import re
 import signal
@@ -24,6 +25,7 @@ from pathlib import Path
 from typing import Any
 
 import gymnasium as gym
+import numpy as np
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback, EvalCallback
 from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
@@ -39,6 +41,8 @@ NORMALIZE_FILE = "vecnormalize.pkl"
 REPLAY_FILE = "replay_buffer.pkl"
 STATS_FILE = "train_stats.json"
 CHECKPOINT_DIR = "checkpoints"
+EVAL_DIR = "eval"
+EVAL_FILE = "evaluations.npz"
 CHECKPOINT_PREFIX = "model"
 SEED_DIR_PREFIX = "seed_"
 EVAL_SEED_OFFSET = 10_000
@@ -107,11 +111,13 @@ def latest_model(run_dir: Path) -> Path | None:
 
 
 class StopOnSigint(BaseCallback):
-    """Turns the first Ctrl-C during ``learn`` into a clean stop at the next env step (a second one aborts)."""
+    """Turns the first Ctrl-C during ``learn`` into a clean stop at the next env step (a second one aborts); also
+    stops there once ``stop`` (an event, e.g. a parent process's) is set."""
 
-    def __init__(self) -> None:
+    def __init__(self, stop: Any = None) -> None:
         super().__init__()
         self.interrupted = False
+        self._stop = stop
         self._previous: Any = None
 
     def _on_training_start(self) -> None:
@@ -123,6 +129,8 @@ class StopOnSigint(BaseCallback):
         signal.signal(signal.SIGINT, self._previous)
 
     def _on_step(self) -> bool:
+        if self._stop is not None and self._stop.is_set():
+            self.interrupted = True
         return not self.interrupted
 
     def _on_training_end(self) -> None:
@@ -153,10 +161,12 @@ def train(
     progress_bar: bool = True,
     command: str | None = None,
     callbacks: Sequence[BaseCallback] = (),
+    stop: Any = None,
 ) -> TrainResult:
     """Train ``config`` into the run directory ``out`` (see the module docstring); ``resume`` continues it.
 
-    ``callbacks`` run beside the checkpoint, evaluation and Ctrl-C callbacks (progress reports, pruning).
+    ``callbacks`` run beside the checkpoint, evaluation and Ctrl-C callbacks (progress reports, pruning); setting
+    the event ``stop`` stops the training as Ctrl-C does.
     """
     out = Path(out)
     start = time.perf_counter()
@@ -186,10 +196,18 @@ def train(
         model = build_model(config, env, tensorboard_log)
     else:
         model = config.algo_class.load(source, env=env, tensorboard_log=tensorboard_log)
-        replay = out / REPLAY_FILE
-        if isinstance(model, OffPolicyAlgorithm) and source.name == MODEL_FILE and replay.exists():
-            model.load_replay_buffer(replay)
-    stop = StopOnSigint()
+        if isinstance(model, OffPolicyAlgorithm):
+            _restore_replay_buffer(model, config, out, source)
+    stopper = StopOnSigint(stop)
+    evaluation = EvalCallback(
+        eval_env,
+        n_eval_episodes=config.n_eval_episodes,
+        eval_freq=max(config.eval_freq // config.n_envs, 1),
+        log_path=str(out / EVAL_DIR),
+        deterministic=True,
+        verbose=1,
+    )
+    _continue_evaluations(evaluation, out / EVAL_DIR / EVAL_FILE, done)
     all_callbacks = [
         CheckpointCallback(
             max(config.save_freq // config.n_envs, 1),
@@ -197,15 +215,8 @@ def train(
             name_prefix=CHECKPOINT_PREFIX,
             save_vecnormalize=normalize is not None,
         ),
-        EvalCallback(
-            eval_env,
-            n_eval_episodes=config.n_eval_episodes,
-            eval_freq=max(config.eval_freq // config.n_envs, 1),
-            log_path=str(out / "eval"),
-            deterministic=True,
-            verbose=1,
-        ),
-        stop,
+        evaluation,
+        stopper,
         *callbacks,
     ]
     remaining = config.n_timesteps - done
@@ -221,13 +232,38 @@ def train(
     if isinstance(env, VecNormalize):
         env.save(str(out / NORMALIZE_FILE))
     if isinstance(model, OffPolicyAlgorithm):
-        if stop.interrupted:
+        if stopper.interrupted:
             model.save_replay_buffer(out / REPLAY_FILE)
         else:
             (out / REPLAY_FILE).unlink(missing_ok=True)
     env.close()
     eval_env.close()
-    return _record(out, model.num_timesteps, stop.interrupted, time.perf_counter() - start)
+    return _record(out, model.num_timesteps, stopper.interrupted, time.perf_counter() - start)
+
+
+def _restore_replay_buffer(model: OffPolicyAlgorithm, config: TrainConfig, out: Path, source: Path) -> None:
+    """The replay buffer that an interrupted run saved beside ``model.zip``; where there is none (a finished run,
+    a checkpoint), the empty buffer refills for the config's ``learning_starts`` steps before updates resume."""
+    replay = out / REPLAY_FILE
+    if source.name == MODEL_FILE and replay.exists():
+        model.load_replay_buffer(replay)
+        return
+    default = inspect.signature(config.algo_class).parameters["learning_starts"].default
+    model.learning_starts = model.num_timesteps + int(config.hyperparams.get("learning_starts", default))
+
+
+def _continue_evaluations(callback: EvalCallback, path: Path, done: int) -> None:
+    """Give ``callback`` the evaluations of the run's earlier segments up to step ``done`` from ``path``: it rewrites
+    that file with its own lists after every evaluation, which would drop them."""
+    if not path.is_file():
+        return
+    with np.load(path) as saved:
+        keep = saved["timesteps"] <= done
+        callback.evaluations_timesteps = saved["timesteps"][keep].tolist()
+        callback.evaluations_results = saved["results"][keep].tolist()
+        callback.evaluations_length = saved["ep_lengths"][keep].tolist()
+        if "successes" in saved:
+            callback.evaluations_successes = saved["successes"][keep].tolist()
 
 
 def _record(out: Path, timesteps: int, interrupted: bool, seconds: float) -> TrainResult:

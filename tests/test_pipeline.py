@@ -15,9 +15,12 @@ import numpy as np
 import pytest
 import torch
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
+from stable_baselines3 import SAC
+from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import DummyVecEnv
 
 import vegym
+from agents import compare
 from agents.cli import main
 from agents.config import (
     ALGOS,
@@ -30,7 +33,8 @@ from agents.config import (
     save_resolved,
 )
 from agents.evaluation import EVAL_SEED, agent_factory, evaluate, evaluate_agents, load_learned
-from agents.training import build_model, make_env, saved_timesteps
+from agents.multiseed import SeedOutcome
+from agents.training import TrainResult, build_model, make_env, resume_config, saved_timesteps, train
 from agents.vec_adapter import VectorEnvAdapter
 
 CONFIG_FILES = sorted(CONFIG_DIR.glob("*.yml"))
@@ -295,6 +299,9 @@ def test_train_cli_tiny_budget_produces_a_loadable_model(tmp_path: Path) -> None
     assert action.shape == (3,)
     again = run_cli(*args)
     assert again.returncode == 2 and "already holds a training run" in again.stdout
+    seeds = run_cli(*args, "--seeds", "1")  # seed_<k>/ runs beside a single run would mix the layouts
+    assert seeds.returncode == 2 and "holds a single training run" in seeds.stdout
+    assert not (out / "seed_1").exists()
 
 
 def test_sigint_saves_a_loadable_model_and_resume_continues(tmp_path: Path) -> None:
@@ -325,6 +332,72 @@ def test_sigint_saves_a_loadable_model_and_resume_continues(tmp_path: Path) -> N
     assert resumed.returncode == 0, resumed.stdout + resumed.stderr
     assert saved_timesteps(out / "model.zip") >= stopped + 200
     assert json.loads((out / "train_stats.json").read_text())["interrupted"] is False
+
+
+def test_resume_keeps_the_earlier_evaluations(tmp_path: Path) -> None:
+    entry = "vegym/Projectile-v0:\n  n_timesteps: 128\n  n_steps: 64\n  batch_size: 64\n  eval_freq: 64\n"
+    config = load_config(write_config(tmp_path, entry + "  n_eval_episodes: 2\n"), "vegym/Projectile-v0")
+    out = tmp_path / "run"
+    train(config, out, progress_bar=False)
+    with np.load(out / "eval" / "evaluations.npz") as saved:
+        first = dict(saved)  # read now: the resumed run rewrites the file
+    train(resume_config(out, 256), out, resume=True, progress_bar=False)
+    with np.load(out / "eval" / "evaluations.npz") as saved:
+        both = dict(saved)
+    assert first["timesteps"].tolist() == [64, 128]
+    assert both["timesteps"].tolist() == [64, 128, 192, 256]
+    np.testing.assert_array_equal(both["results"][:2], first["results"])
+    np.testing.assert_array_equal(both["successes"][:2], first["successes"])
+
+
+class _BufferProbe(BaseCallback):
+    """Records the replay buffer's size and ``learning_starts`` when training starts."""
+
+    def _on_training_start(self) -> None:
+        self.size, self.learning_starts = self.model.replay_buffer.size(), self.model.learning_starts
+
+    def _on_step(self) -> bool:
+        return True
+
+
+def test_resuming_a_finished_off_policy_run_refills_its_buffer_before_updating(tmp_path: Path) -> None:
+    entry = "vegym/Projectile-v0:\n  n_timesteps: 150\n  learning_starts: 100\n  batch_size: 32\n  eval_freq: 1e6\n"
+    config = load_config(write_config(tmp_path, entry, "sac.yml"), "vegym/Projectile-v0")
+    out = tmp_path / "run"
+    train(config, out, progress_bar=False)
+    updates = SAC.load(out / "model.zip")._n_updates
+    assert updates > 0 and not (out / "replay_buffer.pkl").exists()  # a finished run keeps no buffer
+    probe = _BufferProbe()
+    train(resume_config(out, 240), out, resume=True, progress_bar=False, callbacks=[probe])
+    assert probe.size == 0 and probe.learning_starts == 150 + 100
+    assert SAC.load(out / "model.zip")._n_updates == updates  # 90 steps into an empty buffer: no update yet
+
+
+def test_sigint_to_the_parent_alone_stops_the_seeds_and_says_how_to_go_on(tmp_path: Path) -> None:
+    config = write_config(
+        tmp_path, "vegym/BouncingBall-v0:\n  n_timesteps: 1e7\n  n_steps: 64\n  batch_size: 64\n  save_freq: 256\n"
+    )
+    out = tmp_path / "agent"
+    args = ["train", "--env", "BouncingBall-v0", "--algo", "ppo", "--config", str(config), "--out", str(out)]
+    proc = subprocess.Popen(
+        [*VEGYM, *args, "--seeds", "0,1", "--jobs", "1", "--no-progress"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.monotonic() + 120
+    while not list((out / "seed_0" / "checkpoints").glob("model_*_steps.zip")) and time.monotonic() < deadline:
+        time.sleep(0.2)
+    proc.send_signal(signal.SIGINT)  # to the parent's pid only: the worker hears of it from the parent
+    stdout, stderr = proc.communicate(timeout=60)
+    assert proc.returncode == 130, stdout + stderr
+    assert "seeds [1] did not start" in stdout and "failed" not in stdout
+    assert f"continue with: vegym train --env BouncingBall-v0 --algo ppo --out {out} --resume --seeds 0" in stdout
+    assert (
+        f"train the others with: vegym train --env BouncingBall-v0 --algo ppo --out {out} --config {config}" in stdout
+    )
+    assert json.loads((out / "seed_0" / "train_stats.json").read_text())["interrupted"] is True
+    assert not (out / "seed_1").exists()
 
 
 # --- compare and the CLI -------------------------------------------------------------------------------------------
@@ -372,6 +445,27 @@ def test_compare_retrains_on_a_tiny_budget_and_writes_every_file(tmp_path: Path)
             assert (run / "command.txt").read_text().strip() == command
     assert (out / "BouncingBall-v0_oracle.gif").stat().st_size > 0
     assert (out / "normalized_scores.png").stat().st_size > 0
+
+
+@pytest.mark.parametrize("ending", ["failed", "interrupted"])
+def test_a_retraining_that_does_not_finish_leaves_the_agent_as_it_was(
+    ending: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    run = tmp_path / "Projectile-v0" / "ppo" / "seed_0"
+    run.mkdir(parents=True)
+    (run / "model.zip").write_text("the shipped agent")
+
+    def train_seeds(configs: dict, out: Path, **kwargs: object) -> list[SeedOutcome]:
+        (out / "seed_0").mkdir(parents=True)
+        (out / "seed_0" / "model.zip").write_text("a partial run")
+        stopped = TrainResult(out / "seed_0" / "model.zip", 64, True, 1.0)
+        return [SeedOutcome(s, error="boom") if ending == "failed" else SeedOutcome(s, stopped) for s in configs]
+
+    monkeypatch.setattr(compare, "train_seeds", train_seeds)
+    with pytest.raises(RuntimeError if ending == "failed" else KeyboardInterrupt):
+        compare.retrain("vegym/Projectile-v0", tmp_path, ["ppo"], seeds=[0], log=lambda line: None)
+    assert (run / "model.zip").read_text() == "the shipped agent"
+    assert (tmp_path / "Projectile-v0" / "ppo.retraining" / "seed_0" / "model.zip").read_text() == "a partial run"
 
 
 def test_train_seeds_trains_each_seed_and_reports_a_failed_one(tmp_path: Path) -> None:
@@ -438,6 +532,15 @@ def test_bad_input_is_a_clear_error(tmp_path: Path, capsys: pytest.CaptureFixtur
     assert "agent 'oracle' is neither a model path nor one of analytic, random, PATH" in capsys.readouterr().out
     assert main(["train", "--env", "Projectile-v0", "--algo", "ppo", "--out", str(tmp_path), "--resume"]) == 2
     assert "holds no training run to resume" in capsys.readouterr().out
+    missing = str(tmp_path / "no_such_dir" / "x.json")  # refused before the evaluation, not after it
+    assert main(["evaluate", "--env", "Projectile-v0", "--episodes", "2", "--json", missing]) == 2
+    assert f"no directory {tmp_path / 'no_such_dir'}" in capsys.readouterr().out
+    assert main(["demo", "--env", "Projectile-v0", "--gif", str(tmp_path / "x.txt")]) == 2
+    assert "must end in .gif" in capsys.readouterr().out
+    a_file = tmp_path / "a_file"
+    a_file.write_text("")
+    assert main(["train", "--env", "Projectile-v0", "--algo", "ppo", "--out", str(a_file), "--timesteps", "64"]) == 1
+    assert "error: [Errno 17] File exists" in capsys.readouterr().out
 
 
 def test_demo_writes_a_gif(tmp_path: Path) -> None:
