@@ -54,6 +54,9 @@ class BilliardsParams(Params):
             raise invalid(
                 "target_distance_min", self.target_distance_min, f"(0, target_distance_max={self.target_distance_max}]"
             )
+        if not self.bearing_max < self.largest_bearing:
+            allowed = f"[0, acos((radius_a + radius_b) / ball_distance_min) = {self.largest_bearing:.6g})"
+            raise invalid("bearing_max", self.bearing_max, allowed)
         if not self.required_speed <= self.speed_max:
             raise invalid("speed_max", self.speed_max, f"[required_speed={self.required_speed:.4g}, inf)")
 
@@ -63,8 +66,15 @@ class BilliardsParams(Params):
         return self.radius_a + self.radius_b
 
     @property
+    def largest_bearing(self) -> float:
+        """Bound (rad) on ``bearing_max``: B sent at this angle off the line A-B needs a 90-degree cut when B starts
+        nearest, at ``ball_distance_min``. (The ghost point ``G = (D - R cos b, -R sin b)`` makes the cut's cosine
+        ``(D cos b - R) / |G|``, positive while ``D cos b > R``.)"""
+        return math.acos(self.contact_distance / self.ball_distance_min)
+
+    @property
     def required_speed(self) -> float:
-        """Fastest strike (m/s) the ghost-ball shot of any episode needs (``inf`` if a cut reaches 90 degrees).
+        """Fastest strike (m/s) the ghost-ball shot of any episode needs (finite below :attr:`largest_bearing`).
 
         The squared speed grows with the bearing and the target distance and is convex in the ball distance (it
         is ``1 / cos^2`` of a cut angle convex in it, plus the path length, also convex), so the worst case is at
