@@ -141,6 +141,34 @@ def test_rest_shape_balances_the_forces_and_hangs_symmetrically_below_the_ends()
         assert not rest.flags.writeable
 
 
+@pytest.mark.parametrize(
+    "params",
+    [
+        ThreadParams(span=1100.0),
+        ThreadParams(stiffness=4000.0, natural_length=1e-4),
+        ThreadParams(n_nodes=64, span=5e3),
+    ],
+)
+def test_a_taut_thread_s_rest_shape_is_found_with_its_tension_s_rounding(params: ThreadParams) -> None:
+    """Springs stretched far beyond their length: forces of the tension's size (S (span / (N + 1) - l)) balance only
+    to its rounding, which must not keep the solver from stopping."""
+    rest = thread.static_equilibrium(params)
+    force = params.node_mass * thread.acceleration(rest[None], np.zeros((1, params.n_nodes, 2)), 0.0, params)
+    tension = params.stiffness * (params.spacing - params.natural_length)
+    assert tension > 100.0 * params.stiffness * params.natural_length
+    assert np.max(np.abs(force)) < 1e-11 * tension
+    np.testing.assert_allclose(rest[::-1, 1], rest[:, 1], atol=1e-12 * params.span)
+    np.testing.assert_allclose(rest[:, 0], params.spacing * np.arange(1, params.n_nodes + 1), rtol=1e-6)
+
+
+def test_a_slack_thread_without_gravity_is_refused_naming_its_length() -> None:
+    with pytest.raises(
+        ValueError, match=r"natural_length=0.2 is outside the allowed range \(0, span / \(n_nodes \+ 1\) = 0.11\)"
+    ):
+        ThreadParams(gravity=0.0, natural_length=0.2)
+    assert thread.static_equilibrium(ThreadParams(gravity=0.0, natural_length=0.1))[:, 1] == pytest.approx(0.0)
+
+
 def test_velocity_feedback_and_drag_damp_the_thread_to_rest() -> None:
     """Section 9: with c_fb = 0.05 N s/m on every node the motion dies out (max |v| 1.2e-5 m/s after 10 s)."""
     damped = ThreadParams(drag=0.05)

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from vegym.params import Params, param
+from vegym.params import Params, invalid, param
 from vegym.physics.particle import STANDARD_GRAVITY
 
 
@@ -42,6 +42,16 @@ class ThreadParams(Params):
     span: float = param(1.1, "distance between the fixed ends (m)", low=0.0, low_open=True)
     gravity: float = param(STANDARD_GRAVITY, "gravitational acceleration magnitude (m/s^2)", low=0.0)
     drag: float = param(0.002, "c, viscous air drag on each point (N s/m)", low=0.0)
+
+    def validate(self) -> None:
+        if self.gravity == 0.0 and not self.natural_length < self.spacing:
+            allowed = f"(0, span / (n_nodes + 1) = {self.spacing:g}) without gravity, where a slack thread has no rest"
+            raise invalid("natural_length", self.natural_length, allowed)
+
+    @property
+    def spacing(self) -> float:
+        """``span / (N + 1)`` (m): the length of each spring in the straight thread between the ends."""
+        return self.span / (self.n_nodes + 1)
 
     @property
     def stable_step(self) -> float:
@@ -303,8 +313,10 @@ def static_equilibrium(params: ThreadParams, tolerance: float = 1e-12) -> np.nda
     It starts from a parabola of the arc length ``(N + 1) l`` (at least 1% of the span deep). Each step solves
     ``(K + mu I) dp = F`` with the tangent stiffness K (``S [(1 - l/L) I + (l/L) d d^T / L^2]`` per spring), ``mu``
     raised until the matrix is positive definite, and halves dp until the potential energy drops or the residual
-    force halves; it stops when the largest residual force is below ``tolerance`` times ``m g + S l``. Raises
-    ``RuntimeError`` without convergence or at an unstable equilibrium. The result is read-only.
+    force halves; it stops when the largest residual force is below ``tolerance`` times ``m g + S max(l, span /
+    (N + 1))`` (the weight and the tension's scale: a taut thread's tension, ``S (span / (N + 1) - l)``, can be
+    far above ``S l``). Raises ``RuntimeError`` without convergence or at an unstable equilibrium. The result is
+    read-only.
     """
     p = params
     n = p.n_nodes
@@ -312,7 +324,7 @@ def static_equilibrium(params: ThreadParams, tolerance: float = 1e-12) -> np.nda
     slack = max((n + 1) * p.natural_length - p.span, 0.0)
     depth = max(math.sqrt(3.0 * p.span * slack / 8.0), 0.01 * p.span)
     positions = np.stack([x, -4.0 * depth * x * (p.span - x) / p.span**2], axis=-1)[None]
-    scale = p.node_mass * p.gravity + p.stiffness * p.natural_length
+    scale = p.node_mass * p.gravity + p.stiffness * max(p.natural_length, p.spacing)
     zero = np.zeros_like(positions)
 
     def force(at: np.ndarray) -> np.ndarray:
