@@ -50,8 +50,11 @@ class PendulumPumpParams(ScheduledParams, Params):
             raise invalid("target_min", self.target_min, f"[0, target_max={self.target_max}]")
         _ = self.schedule  # raises ValueError if change_interval_min or final_hold is out of range
         stable = self.physics.max_stable_step()
-        if self.step_length >= stable:
-            raise invalid("substeps", self.substeps, f"(dt / {stable:.4g}, 1000]: semi-implicit Euler is unstable")
+        if self.step_length >= stable:  # semi-implicit Euler is unstable at steps of ``stable`` and longer
+            fewest = math.floor(self.dt / stable) + 1
+            if fewest > 1000:
+                raise invalid("dt", self.dt, f"(0, 1000 substeps x {stable:.4g} s) for this pendulum's stable step")
+            raise invalid("substeps", self.substeps, f"[{fewest}, 1000] for dt={self.dt} (stable step {stable:.4g} s)")
 
     @property
     def physics(self) -> PendulumParams:
