@@ -58,7 +58,7 @@ class BouncingBallRenderer:
             x0 = self.time + 0.25 * k
             panel.line((x0, target), (x0 + 0.2, target), canvas.RED if k == 0 else canvas.ORANGE, 3 if k == 0 else 1)
         panel.circle((self.time, r), max(r, 0.04), canvas.BLUE)
-        for h in np.arange(0.0, p.drop_height * 1.05, 0.5):
+        for h in np.arange(0.0, p.drop_height * 1.05, canvas.tick_step(p.drop_height, 0.5, 12)):
             x, y = panel.to_px(0.0, h)
             canvas.text(surface, [f"{h:.1f}"], (x - 34, y - 6), 16, canvas.GREY)
         bounce = len(self.flights)

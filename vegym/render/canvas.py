@@ -5,6 +5,7 @@ Nothing here opens a window; :mod:`vegym.render.window` does that for ``render_m
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Sequence
 
 import numpy as np
@@ -25,6 +26,17 @@ GREEN: Color = (30, 150, 60)
 ORANGE: Color = (235, 140, 20)
 
 _FONTS: dict[int, pygame.font.Font] = {}
+
+
+def tick_step(extent: float, finest: float, most: int) -> float:
+    """Spacing of ticks, labels or grid lines over ``extent``: ``finest``, or its smallest 1-2-5 multiple (2, 5,
+    10, 20, ... times) that leaves at most ``most`` of them (so that a huge scene draws a few, not millions)."""
+    for power in itertools.count():
+        for multiple in (1, 2, 5):
+            step = finest * multiple * 10**power
+            if extent / step <= most:
+                return step
+    raise AssertionError("unreachable")  # pragma: no cover
 
 
 def font(size: int) -> pygame.font.Font:

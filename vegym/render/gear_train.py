@@ -13,11 +13,13 @@ WIDTH, HEIGHT = 800, 520
 SPOKES = 3
 TOOTH_PITCH = 0.012
 """Arc length (m) per tooth of the drawn gears (the teeth are schematic: the model uses pitch radii)."""
+MOST_TEETH = 120
+"""Teeth of the largest drawn gears (a larger one gets a coarser pitch: finer teeth would not show)."""
 
 
 def gear_outline(radius: float, angle: float, depth: float) -> np.ndarray:
     """Outline (k, 2) of a toothed gear of pitch ``radius`` centred at the origin, turned by ``angle`` (rad)."""
-    teeth = max(8, round(2.0 * np.pi * radius / TOOTH_PITCH))
+    teeth = min(max(8, round(2.0 * np.pi * radius / TOOTH_PITCH)), MOST_TEETH)
     phase = np.linspace(0.0, 2.0 * np.pi, 4 * teeth, endpoint=False)
     profile = radius + depth * np.array([1.0, 1.0, -1.0, -1.0])[np.arange(4 * teeth) % 4]
     turn = phase + angle + np.pi / (4 * teeth)

@@ -70,7 +70,7 @@ class SteerableWheelRenderer:
     def _draw_arena(self, top: canvas.Panel) -> None:
         p = self.params
         h = p.half_size
-        for g in np.arange(-h, h + 1e-9, 5.0 if p.arena_size >= 10 else 1.0):
+        for g in np.arange(-h, h + 1e-9, canvas.tick_step(p.arena_size, 5.0 if p.arena_size >= 10 else 1.0, 20)):
             top.line((g, -h), (g, h), canvas.LIGHT)
             top.line((-h, g), (h, g), canvas.LIGHT)
         top.polygon(np.array([[-h, -h], [h, -h], [h, h], [-h, h]]), canvas.BLACK, 2)
