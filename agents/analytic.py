@@ -185,7 +185,8 @@ class ProjectileAdjustFire(AnalyticController):
     Before any shot the wind estimate is zero, so the first shot is the wind-free direct fire at ``speed_max``;
     after a shot, :func:`~vegym.envs.projectile_adjust.wind_from_shot` turns its miss and its action into the
     wind (exact: the miss of the wind-free solution is the wind times the flight time), and the next shot is the
-    quartic firing solution for that wind, which hits.
+    quartic firing solution for that wind, which hits. A miss that gives no finite wind (a shot that never came
+    down to the target's level, possible only in observations no episode makes) counts as no shot.
     """
 
     def __init__(self, params: ProjectileAdjustParams) -> None:
@@ -198,7 +199,11 @@ class ProjectileAdjustFire(AnalyticController):
         distance, height = obs[:, 0] * p.target_distance_max, obs[:, 1] * p.height_scale
         fired = obs[:, 3] > 0.5
         wind = np.zeros((n, 3))
-        wind[fired] = wind_from_shot(distance[fired], height[fired], obs[fired, 4:6] * p.miss_scale, obs[fired, 6:9], p)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            wind[fired] = wind_from_shot(
+                distance[fired], height[fired], obs[fired, 4:6] * p.miss_scale, obs[fired, 6:9], p
+            )
+        wind[~np.isfinite(wind).all(axis=-1)] = 0.0
         delta = np.stack([distance, p.radius - height, zeros], axis=-1)
         elevation, azimuth, _, _ = projectile.firing_solution(delta, wind, p.speed_max, p.physics)
         return np.stack([elevation / ELEVATION_LIMIT, azimuth / AZIMUTH_LIMIT, np.ones(n)], axis=-1)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import warnings
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -108,3 +110,21 @@ def test_the_observation_lists_the_newest_shots_first_and_the_episode_ends_on_a_
     assert "wind_speed_max (default 5.0 in (0, inf))" in ProjectileAdjustParams.describe()  # as checked
     with pytest.raises(ValueError, match="max_shots"):
         ProjectileAdjustParams(max_shots=1)
+
+
+def test_the_controller_acts_on_any_observation_of_the_space() -> None:
+    """Also on observations no episode makes: a launcher below the target's level whose downward shot never came
+    down to it gives no wind (no finite estimate), and the controller fires the wind-free solution."""
+    env = gym.make(ENV_ID)
+    controller = controller_for(env)
+    never_landed = [0.98, 0.0008, 0.31, 0.99, -0.12, 0.09, -0.83, -0.45, -0.46, 0.51, 0.92, 0.61, -0.89, -0.49, 0.59]
+    space = env.observation_space
+    space.seed(1)
+    batch = np.stack([np.array(never_landed, np.float32), *(space.sample() for _ in range(2000))])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        actions, _ = controller.predict(batch)
+    assert np.isfinite(actions).all() and all(env.action_space.contains(a) for a in actions)
+    fresh = batch[:1].copy()
+    fresh[0, 2:] = 0.0  # the same target before any shot
+    np.testing.assert_array_equal(controller.predict(batch[:1])[0], controller.predict(fresh)[0])
