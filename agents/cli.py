@@ -28,15 +28,22 @@ def say(message: str, style: str | None = None) -> None:
     console.print(Text(message, style=style or ""), soft_wrap=True)
 
 
+def _integer(text: str) -> int:
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+
+
 def _positive(text: str) -> int:
-    value = int(text)
+    value = _integer(text)
     if value < 1:
         raise argparse.ArgumentTypeError(f"{value} is not a positive integer")
     return value
 
 
 def _non_negative(text: str) -> int:
-    value = int(text)
+    value = _integer(text)
     if value < 0:
         raise argparse.ArgumentTypeError(f"{value} is negative")
     return value
@@ -278,7 +285,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     say(f"{len(finished)} trials finished in the study ({time.perf_counter() - start:.0f} s in this command)")
     out = Path(args.best) if args.best else SWEEPS_DIR / f"{study_name}_best.yml"
     say(write_best_config(study, settings, out).rstrip())
-    say(f"wrote {out}: train it with `vegym train --env {env_name(env_id)} --algo {args.algo} --config {out}`")
+    train_it = shlex.join(["vegym", "train", "--env", env_name(env_id), "--algo", args.algo, "--config", str(out)])
+    say(f"wrote {out}: train it with `{train_it}`")
     return 0
 
 

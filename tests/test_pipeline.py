@@ -159,6 +159,12 @@ def test_config_file_errors(tmp_path: Path) -> None:
         load_configs(write_config(tmp_path, "vegym/BouncingBall-v0:\n  n_timesteps: 10\n", "a2c.yml"))
     with pytest.raises(ConfigError, match="not valid YAML"):
         load_configs(write_config(tmp_path, "a: [1\n"))
+    twice = "vegym/BouncingBall-v0:\n  n_timesteps: 10\n  batch_size: 64\n  n_timesteps: 20\n"
+    with pytest.raises(ConfigError, match=r"duplicate key 'n_timesteps'[\s\S]*line 4"):
+        load_configs(write_config(tmp_path, twice))
+    twice_nested = "vegym/BouncingBall-v0:\n  n_timesteps: 10\n  policy_kwargs: {net_arch: [64], net_arch: [8]}\n"
+    with pytest.raises(ConfigError, match="duplicate key 'net_arch'"):
+        load_configs(write_config(tmp_path, twice_nested))
 
 
 # --- the VecEnv adapter --------------------------------------------------------------------------------------------
@@ -523,6 +529,13 @@ def test_list_shows_every_env(capsys: pytest.CaptureFixture[str]) -> None:
     out = capsys.readouterr().out
     for env_id in vegym.ENVS:
         assert env_id in out
+
+
+def test_a_non_integer_count_is_a_clear_argument_error(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit) as caught:
+        main(["train", "--env", "Projectile-v0", "--algo", "ppo", "--jobs", "abc"])
+    assert caught.value.code == 2
+    assert "argument --jobs: 'abc' is not an integer" in capsys.readouterr().err
 
 
 def test_bad_input_is_a_clear_error(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
