@@ -305,14 +305,21 @@ class ReportAndPrune(BaseCallback):
         return not self.pruned
 
 
+NEVER = 2**62
+"""An ``eval_freq``/``save_freq`` (env steps) that no training reaches."""
+
+
 def objective(trial: optuna.Trial, settings: SweepSettings, score: Scorer) -> float:
     """Train one trial's config in a scratch directory and return its final mean normalized score."""
     config = trial_config(trial, settings)
     trial.set_user_attr("config", {k: v for k, v in config.to_entry().items() if k not in ("env_id", "algo")})
     pruning = ReportAndPrune(trial, score, config.n_timesteps, settings.reports)
+    # the trial's own evaluations are the pruning reports, and its run is thrown away: none of the config's
+    # training-time evaluations and checkpoints
+    scratch_config = with_overrides(config, {"eval_freq": NEVER, "save_freq": NEVER}, f"trial {trial.number}")
     with tempfile.TemporaryDirectory(prefix="vegym-trial-") as scratch:
         try:
-            result = train(config, Path(scratch) / "run", progress_bar=False, callbacks=[pruning])
+            result = train(scratch_config, Path(scratch) / "run", progress_bar=False, callbacks=[pruning])
             if result.interrupted:
                 raise KeyboardInterrupt
             if pruning.pruned:
@@ -448,6 +455,7 @@ def sweep(
         raise ValueError(f"workers={workers!r} must be at least 1")
     if settings.trials < 1:
         raise ValueError(f"trials={settings.trials!r} must be at least 1")
+    load_config(CONFIG_DIR / f"{settings.algo}.yml", settings.env_id, settings.algo)  # its errors before the study's
     check_storage(settings.storage)
     study = load_study(settings)  # create it once, before the workers race to
     if workers == 1:

@@ -239,3 +239,13 @@ def test_bad_storage_urls_are_clear_errors(capsys: pytest.CaptureFixture[str]) -
     ]:
         assert main([*base, "--storage", storage]) == 2
         assert message in capsys.readouterr().out
+
+
+def test_an_env_without_a_config_entry_is_refused_before_the_study_is_created(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    database = tmp_path / "sweep.db"
+    args = ["sweep", "--env", "Aircraft-v0", "--algo", "td3", "--trials", "1", "--storage", f"sqlite:///{database}"]
+    assert main(args) == 2
+    assert "no entry for vegym/Aircraft-v0" in capsys.readouterr().out
+    assert not database.exists()
