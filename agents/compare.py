@@ -99,9 +99,8 @@ def retrain(
         shutil.rmtree(staging, ignore_errors=True)
         overrides = {} if timesteps is None else {"n_timesteps": timesteps}
         config = load_config(CONFIG_DIR / f"{algo}.yml", env_id, algo, overrides)
-        commands = {
-            s: train_command(env_id, algo, seed_dir(out, s), timesteps, seed=s) for s in seeds
-        }  # the recipe, kept
+        # each run records how the agent it becomes was made: its place after the swap
+        commands = {s: train_command(env_id, algo, seed_dir(out, s), timesteps, seed=s) for s in seeds}
         outcomes = train_seeds(
             seed_configs(config, seeds),
             staging,
