@@ -22,6 +22,8 @@ from __future__ import annotations
 
 import fcntl
 import multiprocessing as mp
+import os
+import signal
 import sys
 import tempfile
 import time
@@ -473,6 +475,9 @@ def sweep(
         for process in processes:
             process.join()
     except KeyboardInterrupt:
+        for process in processes:  # a SIGINT to this process alone (not its group) stops the workers too
+            if process.is_alive():
+                os.kill(process.pid, signal.SIGINT)
         for process in processes:
             process.join()
         raise

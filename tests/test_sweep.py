@@ -249,3 +249,17 @@ def test_an_env_without_a_config_entry_is_refused_before_the_study_is_created(
     assert main(args) == 2
     assert "no entry for vegym/Aircraft-v0" in capsys.readouterr().out
     assert not database.exists()
+
+
+def test_sigint_to_the_parent_alone_stops_its_workers(tmp_path: Path) -> None:
+    storage = f"sqlite:///{tmp_path / 'study.db'}"
+    args = [*sweep_args(storage, "stopped", 50, "--workers", "2"), "--timesteps", "1000000"]
+    parent = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    deadline = time.monotonic() + 300
+    while training_trials(tmp_path / "study.db") < 2:
+        if time.monotonic() > deadline:
+            parent.kill()
+            pytest.fail("the workers never started their trials")
+        time.sleep(0.2)
+    parent.send_signal(signal.SIGINT)  # to the parent's pid only: the workers hear of it from the parent
+    assert parent.wait(timeout=60) == 130
