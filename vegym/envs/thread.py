@@ -292,12 +292,12 @@ class ThreadEnv(VegymEnv[ThreadEnvParams]):
     ## Description
     The elastic thread of the chapter (8.6.3, 8.99-8.112) in the vector form of PHYSICS.md section 9: N point
     masses m joined by N + 1 springs (stiffness S, natural length l) between two fixed ends ``span`` apart, under
-    gravity and a light air drag, integrated with semi-implicit Euler in as many substeps as the stability bound
-    ``h < sqrt(m/S)`` needs (3 per step at the defaults). At the defaults the thread is pretensioned (10 springs of
-    0.1 m over 1.1 m) and sags 6 cm at rest; its slowest mode rings at 2.4 Hz and, with the air drag alone,
-    the energy takes 46 s to fall to 1%. Each episode plucks it: one point is pulled up or down and the thread
-    released at rest from the triangle it makes. Actuators at ``n_actuators`` nodes push with bounded forces and
-    must take the energy out quickly.
+    gravity and a light air drag, integrated with semi-implicit Euler in as many substeps as keep them within half
+    the stability bound, ``h <= sqrt(m/S) / 2`` (3 per step at the defaults). At the defaults the thread is
+    pretensioned (10 springs of 0.1 m over 1.1 m) and sags 6 cm at rest; its slowest mode rings at 2.4 Hz and,
+    with the air drag alone, the energy takes 46 s to fall to 1%. Each episode plucks it: one point is pulled up
+    or down and the thread released at rest from the triangle it makes. Actuators at ``n_actuators`` nodes push
+    with bounded forces and must take the energy out quickly.
 
     ## Action Space
     ``Box(-1, 1, (2 K,), float32)`` for K = ``n_actuators``: the force ``(u_x, u_y) = max_force (a_2k, a_2k+1)``
