@@ -3,7 +3,7 @@
 Learned agents are the directories ``<models>/<Env-v0>/<algo>/``: one run (``model.zip`` and its
 ``config.yml``) or one run per training seed in ``seed_<k>/``; the shipped ones are in ``agents/pretrained/``.
 Every training seed is evaluated on the same episodes; the table and ``compare.json`` give the mean, the
-interquartile mean and their 95% stratified-bootstrap confidence intervals over seeds and episodes
+interquartile mean and their 95% crossed-bootstrap confidence intervals over seeds and episodes
 (:mod:`agents.statistics`). ``retrain`` remakes the agents from the committed configs. Output: ``compare.json``
 (one record per env and agent), ``compare.md``, ``normalized_scores.png`` (with the CIs as error bars), per env
 ``<Env-v0>_trajectory.png`` and one ``<Env-v0>_<agent>.gif`` per agent (a learned agent's first seed).
@@ -214,7 +214,7 @@ def markdown(
         f"{episodes} episodes per env and agent (and per training seed of a learned agent; *seeds*: how many), "
         f"episode seeds {seed}..{seed + episodes - 1}, deterministic actions. "
         "normalized = (R - R_random) / (R_analytic - R_random) per episode, averaged; IQM: the interquartile mean "
-        "of the same scores; [95% CI]: stratified bootstrap over training seeds and episodes (rliable); "
+        "of the same scores; [95% CI]: bootstrap resampling the training seeds and, shared by them, the episodes; "
         "*vs reference*: the mean against a stronger reference (BouncingBall: `oracle`, the exact optimum knowing "
         "every future target).",
         "",

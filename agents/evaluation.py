@@ -218,7 +218,7 @@ class EvalResult:
 
     @cached_property
     def summary(self) -> ScoreSummary | None:
-        """Mean, IQM and their 95% stratified-bootstrap CIs of :attr:`normalized_scores`."""
+        """Mean, IQM and their 95% crossed-bootstrap CIs (:mod:`agents.statistics`) of :attr:`normalized_scores`."""
         return None if self.normalized_scores is None else summarize(self.normalized_scores)
 
     @property

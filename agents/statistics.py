@@ -1,13 +1,17 @@
-"""Interval estimates of normalized scores across training seeds and evaluation episodes (rliable's bootstrap).
+"""Interval estimates of normalized scores across training seeds and evaluation episodes (a crossed bootstrap).
 
 An agent's scores form a matrix of shape ``(seeds, episodes)``: one row per training seed (a single row for the
 analytic controller, the random policy and the references, which are not trained), one column per evaluation
 episode (the same seeds for every agent). The aggregates are the mean and the interquartile mean (IQM: the mean
-of the middle 50% of all scores). Their 95% confidence intervals come from rliable's stratified bootstrap
-(Agarwal et al., NeurIPS 2021) applied to the nested structure of the data: the training seeds are the strata,
-whole seeds are resampled (``task_bootstrap``) and, within each, its episodes. A seed's episodes come from one
-model, so resampling seeds as a whole keeps the variation between seeds in the interval; with three seeds that
-part of the interval rests on three values and is coarse. The resampling is seeded, so a report is reproducible.
+of the middle 50% of all scores, rliable's ``aggregate_iqm``). Their 95% confidence intervals come from a
+percentile bootstrap that resamples both factors of this crossed design: each replicate draws the training seeds
+(whole rows) and, once for all of them, the evaluation episodes (whole columns), the two-way "pigeonhole"
+bootstrap (Owen, Ann. Appl. Stat. 2007). Every seed plays the same episodes, so an episode's difficulty is
+shared by the seeds: rliable's stratified bootstrap, which resamples the episodes of each seed on their own,
+treats them as independent and shrinks that part of the interval by the number of seeds (three copies of one
+seed would give an interval sqrt(3) times narrower than the seed alone); no library offers the crossed version.
+With three seeds the between-seed part of an interval rests on three values and is coarse. The resampling is
+seeded, so a report is reproducible.
 """
 
 from __future__ import annotations
@@ -15,27 +19,24 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from rliable import library, metrics
+from rliable import metrics
+from scipy import stats
 
 BOOTSTRAP_REPS = 2000
 """Bootstrap resamples per interval."""
 BOOTSTRAP_SEED = 0
-"""Seed of the resampling."""
+"""Seed of the resampling (the episode draws and the seed draws come from two streams of it)."""
 CONFIDENCE = 0.95
 
 
 @dataclass(frozen=True)
 class ScoreSummary:
-    """Mean and IQM of a score matrix with their 95% stratified-bootstrap confidence intervals."""
+    """Mean and IQM of a score matrix with their 95% crossed-bootstrap confidence intervals."""
 
     mean: float
     iqm: float
     mean_ci95: tuple[float, float]
     iqm_ci95: tuple[float, float]
-
-
-def _aggregates(scores: np.ndarray) -> np.ndarray:
-    return np.array([metrics.aggregate_mean(scores), metrics.aggregate_iqm(scores)])
 
 
 def summarize(scores: np.ndarray) -> ScoreSummary:
@@ -45,19 +46,16 @@ def summarize(scores: np.ndarray) -> ScoreSummary:
         raise ValueError(f"scores must be a non-empty (seeds, episodes) matrix, got shape {scores.shape}")
     if not np.all(np.isfinite(scores)):
         raise ValueError("scores must be finite")
-    # rliable draws its resampling indices from numpy's global generator (its random_state only reaches arch),
-    # so the global generator is seeded for the call and restored after it
-    saved = np.random.get_state()  # noqa: NPY002
-    np.random.seed(BOOTSTRAP_SEED)  # noqa: NPY002
-    try:
-        point, interval = library.get_interval_estimates(
-            {"agent": scores.T},  # rliable's (runs, tasks): episodes resampled within each seed, seeds whole
-            _aggregates,
-            task_bootstrap=True,
-            reps=BOOTSTRAP_REPS,
-            confidence_interval_size=CONFIDENCE,
-        )
-    finally:
-        np.random.set_state(saved)  # noqa: NPY002
-    (mean, iqm), ((mean_low, iqm_low), (mean_high, iqm_high)) = point["agent"], interval["agent"]
-    return ScoreSummary(float(mean), float(iqm), (float(mean_low), float(mean_high)), (float(iqm_low), float(iqm_high)))
+    n_seeds, n_episodes = scores.shape
+    episode_draws = np.random.default_rng([BOOTSTRAP_SEED, 0]).integers(0, n_episodes, (BOOTSTRAP_REPS, n_episodes))
+    seed_draws = np.random.default_rng([BOOTSTRAP_SEED, 1]).integers(0, n_seeds, (BOOTSTRAP_REPS, n_seeds))
+    replicates = scores[seed_draws[:, :, None], episode_draws[:, None, :]].reshape(BOOTSTRAP_REPS, -1)
+    tail = 50.0 * (1.0 - CONFIDENCE)
+    mean_low, mean_high = np.percentile(replicates.mean(axis=1), [tail, 100.0 - tail])
+    iqm_low, iqm_high = np.percentile(stats.trim_mean(replicates, 0.25, axis=1), [tail, 100.0 - tail])
+    return ScoreSummary(
+        float(metrics.aggregate_mean(scores)),
+        float(metrics.aggregate_iqm(scores)),
+        (float(mean_low), float(mean_high)),
+        (float(iqm_low), float(iqm_high)),
+    )
