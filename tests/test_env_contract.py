@@ -178,6 +178,16 @@ def test_vector_env_matches_single_envs_including_mixed_resets(env_id: str) -> N
         needs_reset = terminated | truncated
     if limit > 1:
         assert mixed_steps > 0, "no step had some sub-envs resetting and others not"
+    obs, _ = vec.reset()  # unseeded: every sub-env's next episode, as each single env's reset()
+    for i, env in enumerate(singles):
+        assert_same(env.reset()[0], obs[i])
+    listed = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point")
+    listed.reset(seed=[seed + i for i in range(n)])
+    obs, _ = listed.reset()  # the same after seeds given as a list (which leave np_random unseeded)
+    for i in range(n):
+        fresh = gym.make(env_id)
+        fresh.reset(seed=seed + i)
+        assert_same(fresh.reset()[0], obs[i])
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)

@@ -576,8 +576,13 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
 
         A masked reset without a seed starts each masked sub-env's next episode, exactly as autoreset (and the
         single env's ``reset()``) would; with a seed, masked sub-env ``i`` gets ``seed + i`` (or ``seed[i]``).
+        A reset without a seed or a mask does the former for every sub-env, once there is a state (the first
+        draws the keys from the vector env's ``np_random``), so that, as with single envs, only seeds choose the
+        episodes.
         """
         mask = (options or {}).get("reset_mask")
+        if mask is None and seed is None and self.state is not None:
+            mask = np.ones(self.num_envs, dtype=bool)
         if mask is not None:
             return self._reset_masked(seed, mask)
         super().reset(seed=seed if isinstance(seed, int) else None)
