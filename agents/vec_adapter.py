@@ -44,8 +44,10 @@ def split_info(info: Mapping[str, Any], num_envs: int) -> list[dict[str, Any]]:
 class VectorEnvAdapter(VecEnv):
     """SB3 ``VecEnv`` semantics over a Gymnasium NEXT_STEP ``VectorEnv`` (see the module docstring).
 
-    The sub-envs of a native vector env share one batched task, so ``get_attr``/``set_attr`` read and write the
-    vector env's attribute for every index, and no sub-env is wrapped (``env_is_wrapped`` is all False).
+    The sub-envs of a native vector env share one batched task, so ``get_attr``, ``set_attr`` and ``env_method``
+    act on the vector env itself, for all sub-envs at once (ValueError for indices that pick only some), and no
+    sub-env is wrapped (``env_is_wrapped`` is all False). ``get_images`` gives the frames of the vector env's
+    ``render()`` (a ``SyncVectorEnv`` of rgb_array envs draws one per sub-env).
     """
 
     def __init__(self, venv: VectorEnv) -> None:
@@ -97,17 +99,28 @@ class VectorEnvAdapter(VecEnv):
     def _count(self, indices: VecEnvIndices) -> int:
         return len(list(self._get_indices(indices)))
 
+    def _every_env(self, action: str, indices: VecEnvIndices) -> int:
+        """The number of sub-envs, checking that ``indices`` picks them all (ValueError naming ``action``)."""
+        if set(self._get_indices(indices)) != set(range(self.num_envs)):
+            raise ValueError(f"{action} acts on the whole vector env; indices={indices!r} picks only some sub-envs")
+        return self.num_envs
+
     def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
         return [getattr(self.venv, attr_name)] * self._count(indices)
 
     def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:
+        self._every_env(f"set_attr({attr_name!r})", indices)
         setattr(self.venv, attr_name, value)
 
     def env_method(
         self, method_name: str, *method_args: Any, indices: VecEnvIndices = None, **method_kwargs: Any
     ) -> list[Any]:
-        result = getattr(self.venv, method_name)(*method_args, **method_kwargs)
-        return [result] * self._count(indices)
+        count = self._every_env(f"env_method({method_name!r})", indices)
+        return [getattr(self.venv, method_name)(*method_args, **method_kwargs)] * count
+
+    def get_images(self) -> list[np.ndarray | None]:
+        frames = self.venv.render()
+        return list(frames) if frames is not None else [None] * self.num_envs
 
     def env_is_wrapped(self, wrapper_class: type, indices: VecEnvIndices = None) -> list[bool]:
         return [False] * self._count(indices)

@@ -210,6 +210,7 @@ def run_both(env_id: str, adapted: Any, n: int, limit: int, steps: int = 60) -> 
         assert_identical(list(got[3]), list(want[3]), f"step {t} infos")
         assert_identical(adapted.reset_infos, dummy.reset_infos, f"step {t} reset_infos")
         mixed += int(0 < want[2].sum() < n)
+    assert_identical(adapted.reset(), dummy.reset(), "unseeded reset obs")  # each sub-env's next episode
     return mixed
 
 
@@ -227,6 +228,30 @@ def test_adapter_over_gymnasium_sync_vector_env_equals_dummy_vec_env() -> None:
     sync = SyncVectorEnv([lambda: gym.make(env_id, max_episode_steps=limit) for _ in range(n)])
     assert sync.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
     assert run_both(env_id, VectorEnvAdapter(sync), n, limit) > 0
+
+
+def test_adapter_acts_on_the_whole_native_vector_env_and_refuses_some_indices() -> None:
+    adapter = VectorEnvAdapter(gym.make_vec("vegym/Projectile-v0", num_envs=3, vectorization_mode="vector_entry_point"))
+    adapter.reset()
+    assert adapter.get_attr("num_envs") == [3, 3, 3] and adapter.get_attr("num_envs", indices=[1]) == [3]
+    results = adapter.env_method("reset", seed=1)  # one call on the vector env, its result for each sub-env
+    assert len(results) == 3 and results[0][0].shape == (3, 4)
+    adapter.set_attr("note", "all")
+    assert adapter.venv.note == "all"
+    with pytest.raises(ValueError, match=r"set_attr\('note'\) acts on the whole vector env; indices=\[0\]"):
+        adapter.set_attr("note", "one", indices=[0])
+    with pytest.raises(ValueError, match=r"env_method\('reset'\) acts on the whole vector env"):
+        adapter.env_method("reset", indices=[0, 2])
+    assert adapter.venv.note == "all"
+
+
+def test_adapter_renders_the_frames_of_a_sync_vector_env() -> None:
+    sync = SyncVectorEnv([lambda: gym.make("vegym/BouncingBall-v0", render_mode="rgb_array") for _ in range(2)])
+    adapter = VectorEnvAdapter(sync)
+    adapter.reset()
+    frames = adapter.get_images()
+    assert len(frames) == 2 and all(f.dtype == np.uint8 and f.ndim == 3 for f in frames)
+    assert adapter.render(mode="rgb_array").ndim == 3  # SB3 tiles them
 
 
 def test_adapter_rejects_same_step_autoreset() -> None:
