@@ -8,7 +8,7 @@ percentile bootstrap that resamples both factors of this crossed design: each re
 (whole rows) and, once for all of them, the evaluation episodes (whole columns), the two-way "pigeonhole"
 bootstrap (Owen, Ann. Appl. Stat. 2007). Every seed plays the same episodes, so an episode's difficulty is
 shared by the seeds: rliable's stratified bootstrap, which resamples the episodes of each seed on their own,
-treats them as independent and shrinks that part of the interval by the number of seeds (three copies of one
+treats them as independent and divides that part of the variance by the number of seeds (three copies of one
 seed would give an interval sqrt(3) times narrower than the seed alone); no library offers the crossed version.
 With three seeds the between-seed part of an interval rests on three values and is coarse. The resampling is
 seeded, so a report is reproducible.
