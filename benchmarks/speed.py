@@ -6,7 +6,7 @@ of the process. CartPole-v1 and its native ``CartPoleVectorEnv`` are measured wi
 each vegym measurement, three times: a cell shows the env's best rate and the median ratio (vegym / CartPole) of
 the three back-to-back pairs, each pair taken seconds apart under the same load; the CartPole row is the median of
 CartPole's best rates beside every env. Run:
-``python benchmarks/speed.py [--json] [--seconds S] [--envs ID ...]``.
+``python benchmarks/speed.py [--json] [--seconds S] [--envs ID ...]`` (ids with or without ``vegym/``).
 """
 
 from __future__ import annotations
@@ -28,7 +28,9 @@ VECTOR_SIZES = (1, 64, 1024, 8192)
 
 
 def rate(run: Callable[[int], None], seconds: float) -> float:
-    """Calls of ``run(k)`` per second, with k grown until one timing lasts ``seconds``; best of three."""
+    """Calls of ``run(k)`` per second: after one untimed call (compiling, first-use caches), k doubles until one
+    timing lasts a third of ``seconds``; the best of that timing and two more (about 2 ``seconds`` in all)."""
+    run(1)
     k = 1
     while True:
         start = time.perf_counter()
@@ -77,6 +79,8 @@ def vector_rate(env_id: str, num_envs: int, seconds: float) -> float:
 
 
 def predict_rate(env_id: str, num_envs: int, seconds: float) -> float:
+    """Observations per second of the analytic controller's ``predict`` on a batch of the vector env's reset
+    observations (ProjectileAdjust's: before any shot, so without the wind estimate of its later shots)."""
     env = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point")
     obs, _ = env.reset(seed=0)
     controller = controller_for(env)
@@ -136,10 +140,18 @@ def table(results: dict) -> str:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
-    parser.add_argument("--seconds", type=float, default=0.5, help="approximate time per measurement (s)")
-    parser.add_argument("--envs", nargs="*", default=list(vegym.ENVS), help="env ids (default: all registered)")
+    parser.add_argument(
+        "--seconds", type=float, default=0.5, help="a third of it is the longest timing; a measurement takes ~2x (s)"
+    )
+    parser.add_argument(
+        "--envs", nargs="+", default=list(vegym.ENVS), help="vegym env ids, e.g. Aircraft-v0 (default: all)"
+    )
     args = parser.parse_args()
-    results = measure(args.envs, args.seconds)
+    env_ids = [env_id if env_id.startswith("vegym/") else f"vegym/{env_id}" for env_id in args.envs]
+    unknown = [env_id for env_id in env_ids if env_id not in vegym.ENVS]
+    if unknown:
+        parser.error(f"not vegym envs: {', '.join(unknown)} (registered: {', '.join(vegym.ENVS)})")
+    results = measure(env_ids, args.seconds)
     print(json.dumps(results, indent=2) if args.json else table(results))
 
 

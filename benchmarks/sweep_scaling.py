@@ -48,7 +48,9 @@ def run_sweep(workers: int, args: argparse.Namespace) -> dict[str, float]:
             str(Path(scratch) / "best.yml"),
         ]
         start = time.perf_counter()
-        subprocess.run(command, check=True, capture_output=True, text=True)
+        done = subprocess.run(command, capture_output=True, text=True)
+        if done.returncode != 0:
+            raise SystemExit(f"vegym sweep failed (exit status {done.returncode}):\n{done.stdout}{done.stderr}")
         seconds = time.perf_counter() - start
         trials = optuna.load_study(study_name="bench", storage=storage).get_trials()
     return {

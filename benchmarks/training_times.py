@@ -21,7 +21,8 @@ def main() -> None:
         run = stats_file.parent
         command = (run / "command.txt").read_text().strip()
         env, algo, seed = run.parent.parent.name, run.parent.name, run.name.removeprefix("seed_")
-        print(f"| {env} | {algo} | {seed} | {stats['timesteps']} | {stats['wall_time_s']:.0f} | `{command}` |")
+        steps = f"{stats['timesteps']}{' (interrupted)' if stats['interrupted'] else ''}"
+        print(f"| {env} | {algo} | {seed} | {steps} | {stats['wall_time_s']:.0f} | `{command}` |")
 
 
 if __name__ == "__main__":
