@@ -22,7 +22,12 @@ from vegym.envs.bouncing_ball import BouncingBallParams, BouncingBallTask, optim
 from vegym.envs.gear_train import GearTrainParams, GearTrainTask
 from vegym.envs.pendulum_pump import PendulumPumpParams, PendulumPumpTask
 from vegym.envs.projectile import AZIMUTH_LIMIT, ELEVATION_LIMIT, ProjectileEnvParams, ProjectileTask
-from vegym.envs.projectile_adjust import ProjectileAdjustParams, ProjectileAdjustTask, wind_from_shot
+from vegym.envs.projectile_adjust import (
+    ProjectileAdjustParams,
+    ProjectileAdjustTask,
+    observed_miss,
+    wind_from_shot,
+)
 from vegym.envs.steerable_wheel import SteerableWheelParams, SteerableWheelTask
 from vegym.envs.suspension import SuspensionParams, SuspensionTask
 from vegym.envs.thread import ThreadEnvParams, ThreadTask
@@ -201,7 +206,7 @@ class ProjectileAdjustFire(AnalyticController):
         wind = np.zeros((n, 3))
         with np.errstate(divide="ignore", invalid="ignore"):
             wind[fired] = wind_from_shot(
-                distance[fired], height[fired], obs[fired, 4:6] * p.miss_scale, obs[fired, 6:9], p
+                distance[fired], height[fired], observed_miss(obs[fired, 4:6], p), obs[fired, 6:9], p
             )
         wind[~np.isfinite(wind).all(axis=-1)] = 0.0
         delta = np.stack([distance, p.radius - height, zeros], axis=-1)

@@ -85,7 +85,7 @@ def test_the_pluck_is_a_triangle_on_the_rest_shape_released_at_rest() -> None:
         kinks = np.flatnonzero(np.abs(np.diff(slopes)) > 1e-9 * p.pluck_max)
         assert len(kinks) <= 2 and (len(kinks) < 2 or kinks[1] == kinks[0] + 1)  # one straight piece per side
     assert 0.4 < np.mean(lift[:, :, 1].sum(axis=1) > 0) < 0.6  # up or down
-    assert np.all(state["initial_excess"] > 0.0) and np.all(obs[:, -1] == 1.0)
+    assert np.all(state["initial_excess"] > 0.0) and np.all(obs[:, -1] == 0.5)  # f / (1 + f) of f = 1
     excess = thread.energy(state["positions"], state["velocities"], p.physics)
     excess -= thread.energy(rest[None], np.zeros((1, 9, 2)), p.physics)
     np.testing.assert_allclose(state["initial_excess"], excess, rtol=1e-12)
@@ -134,6 +134,7 @@ def test_info_is_the_thread_step_in_si_units_and_settling_ends_the_episode() -> 
         }
         assert reward == sum(info["reward_terms"].values()) and info["dt"] == p.dt and not truncated
         assert terminated == info["is_success"] == (fraction <= p.settle_fraction)
+        assert obs[-1] == pytest.approx(fraction / (1.0 + fraction), rel=1e-6)  # float32
     assert terminated and steps < 100
 
 
@@ -194,3 +195,20 @@ def test_a_batch_of_several_blocks_steps_each_episode_as_alone_bit_for_bit() -> 
                 np.testing.assert_array_equal(value[i : i + 1], alone[name], err_msg=name)
             for name, value in state.items():
                 np.testing.assert_array_equal(value[i : i + 1], rows[i][name], err_msg=name)
+
+
+def test_the_energy_entry_follows_energy_pumped_far_above_the_pluck() -> None:
+    """Random forces pump in many times the pluck's energy: the entry f / (1 + f) keeps telling those apart (clipped
+    at f = 1 it read 1 on 99% of such steps)."""
+    env = gym.make_vec(ENV_ID, num_envs=16, vectorization_mode="vector_entry_point")
+    env.reset(seed=2)
+    rng = np.random.default_rng(2)
+    fractions, entries = [], []
+    for _ in range(150):
+        obs, _, _, _, info = env.step(rng.uniform(-1.0, 1.0, (16, 6)).astype(np.float32))
+        fractions.append(info["energy_fraction"])
+        entries.append(obs[:, -1])
+    fractions, entries = np.concatenate(fractions), np.concatenate(entries)
+    assert np.median(fractions) > 2.0  # far above the pluck's energy
+    np.testing.assert_allclose(entries, fractions / (1.0 + fractions), rtol=1e-6)
+    assert entries.max() < 1.0 and len(np.unique(entries)) > 0.9 * len(entries)

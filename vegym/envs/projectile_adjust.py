@@ -55,12 +55,19 @@ class ProjectileAdjustParams(ProjectileEnvParams):
 
     @property
     def miss_scale(self) -> float:
-        """Normaliser of the observed misses (m): ``wind_speed_max * longest_flight``.
-
-        The largest miss of a shot aimed by a wind-free solution that would hit (its miss is ``w T``); larger misses
-        are clipped to it in the observation.
+        """Scale of the observed misses (m): ``wind_speed_max * longest_flight``, the largest miss of a shot aimed by
+        a wind-free solution that would hit (its miss is ``w T``). A miss ``m`` shows as ``x / (1 + |x|)`` of
+        ``x = m / miss_scale``: linear for small misses, 1/2 at this one, and any larger miss still told apart
+        (:func:`observed_miss` inverts it).
         """
         return self.wind_speed_max * self.longest_flight
+
+
+def observed_miss(entry: np.ndarray, params: ProjectileAdjustParams) -> np.ndarray:
+    """The misses (m) that observation entries in (-1, 1) show: ``miss_scale y / (1 - |y|)``, the inverse of
+    ``y = x / (1 + |x|)``, ``x = miss / miss_scale``."""
+    y = np.asarray(entry, dtype=np.float64)
+    return params.miss_scale * y / (1.0 - np.abs(y))
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -185,8 +192,8 @@ def _observe(
         j = 3 + k * SHOT_FIELDS
         for i in range(n):
             obs[i, j] = 1.0 if k < shots[i] else 0.0
-            obs[i, j + 1] = min(max(misses[i, k, 0] / miss_scale, -1.0), 1.0)
-            obs[i, j + 2] = min(max(misses[i, k, 1] / miss_scale, -1.0), 1.0)
+            along, across = misses[i, k, 0] / miss_scale, misses[i, k, 1] / miss_scale
+            obs[i, j + 1], obs[i, j + 2] = along / (1.0 + abs(along)), across / (1.0 + abs(across))
             obs[i, j + 3], obs[i, j + 4], obs[i, j + 5] = actions[i, k, 0], actions[i, k, 1], actions[i, k, 2]
 
 
@@ -317,8 +324,9 @@ class ProjectileAdjustEnv(VegymEnv[ProjectileAdjustParams]):
     the launch height over ``max(launch_height_max, 1 m)`` (as Projectile-v0), the shots fired over
     ``max_shots``; then, for the ``max_shots - 1`` most recent shots, newest first: a fired flag (0 for an empty
     slot, whose other entries are 0), the landing point minus the target along and across the line of fire
-    over ``miss_scale = wind_speed_max * longest_flight`` (clipped to [-1, 1]: only wild shots miss by more), and
-    the shot's three actions. ``low`` is 0 for the first three entries and the flags, -1 elsewhere.
+    (``x / (1 + |x|)`` of ``x`` = the miss over ``miss_scale = wind_speed_max * longest_flight``: in (-1, 1),
+    linear near 0, 1/2 at a miss of ``miss_scale``, and far misses still told apart), and the shot's three
+    actions. ``low`` is 0 for the first three entries and the flags, -1 elsewhere.
 
     ## Rewards
     Per shot as Projectile-v0: ``-miss / target_distance_max`` (term ``miss``) plus, for a landing within
