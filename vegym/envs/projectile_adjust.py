@@ -192,8 +192,8 @@ def _observe(
         j = 3 + k * SHOT_FIELDS
         for i in range(n):
             obs[i, j] = 1.0 if k < shots[i] else 0.0
-            along, across = misses[i, k, 0] / miss_scale, misses[i, k, 1] / miss_scale
-            obs[i, j + 1], obs[i, j + 2] = along / (1.0 + abs(along)), across / (1.0 + abs(across))
+            along, across = misses[i, k, 0], misses[i, k, 1]  # x / (1 + |x|) of x = m / s is m / (s + |m|)
+            obs[i, j + 1], obs[i, j + 2] = along / (miss_scale + abs(along)), across / (miss_scale + abs(across))
             obs[i, j + 3], obs[i, j + 4], obs[i, j + 5] = actions[i, k, 0], actions[i, k, 1], actions[i, k, 2]
 
 

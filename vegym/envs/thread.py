@@ -204,9 +204,9 @@ def _observe_kernel(
             obs[i, k] = min(max((p[i, k] - rest[k]) / pluck_max, -1.0), 1.0)
         for k in range(size):
             obs[i, size + k] = min(max(v[i, k] / velocity_scale, -1.0), 1.0)
-    for i in range(n):  # f / (1 + f) of the fraction f left: 1/2 at the release, bounded however much is pumped in
-        fraction = max(excess[i] / initial_excess[i], 0.0)
-        obs[i, 2 * size] = fraction / (1.0 + fraction)
+    for i in range(n):  # f / (1 + f) of the fraction f = E / E0 left, as E / (E0 + E): 1/2 at the release, bounded
+        left = max(excess[i], 0.0)
+        obs[i, 2 * size] = left / (initial_excess[i] + left)
 
 
 class ThreadTask(Task[ThreadEnvParams]):
