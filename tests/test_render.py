@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -40,3 +42,85 @@ def test_huge_scenes_draw_their_frames(env_id: str, params: dict) -> None:
     env.step(env.action_space.sample())
     frame = env.render()
     assert frame.dtype == np.uint8 and frame.ndim == 3 and frame.shape[2] == 3
+
+
+def test_frames_still_draw_after_pygame_quit_elsewhere() -> None:
+    """Gymnasium's HumanRendering.close() and classic-control envs call pygame.quit(), which stops the fonts."""
+    import pygame
+
+    env = gym.make("vegym/GearTrain-v0", render_mode="rgb_array")
+    env.reset(seed=0)
+    before = env.render()
+    pygame.quit()
+    np.testing.assert_array_equal(env.render(), before)
+
+
+def test_human_windows_of_two_envs_take_turns_and_the_last_one_closed_closes_the_display() -> None:
+    import pygame
+
+    gears, pendulum = (
+        gym.make(env_id, render_mode="human") for env_id in ("vegym/GearTrain-v0", "vegym/PendulumPump-v0")
+    )
+    sizes = []
+    for env in (gears, pendulum):
+        env.reset(seed=0)
+        sizes.append(env.unwrapped._get_renderer().draw().shape[1::-1])
+    assert sizes[0] != sizes[1]
+    gears.step(gears.action_space.sample())
+    assert pygame.display.get_surface().get_size() == sizes[0]  # not cropped to the other env's window
+    gears.close()
+    pendulum.step(pendulum.action_space.sample())
+    assert pygame.display.get_init() and pygame.display.get_surface().get_size() == sizes[1]
+    pendulum.close()
+    assert not pygame.display.get_init()
+
+
+def projectile_frame(wind: tuple[float, float, float], **params: float) -> np.ndarray:
+    """A Projectile-v0 frame of a target 40 m along +x, level with the launcher, in the given wind (m/s)."""
+    from vegym.render.projectile import ProjectileRenderer
+
+    env = gym.make("vegym/Projectile-v0", **params)
+    env.reset(seed=0)
+    state = {name: value.copy() for name, value in env.unwrapped.state.items()}
+    state["launch_position"][0] = (0.0, 1.0, 0.0)
+    state["target"][0] = (40.0, 1.0, 0.0)
+    state["wind"][0] = wind
+    renderer = ProjectileRenderer(env.unwrapped.params)
+    renderer.reset(state)
+    return renderer.draw()
+
+
+def test_projectile_top_view_is_seen_from_above_and_keeps_the_wind_arrow_inside() -> None:
+    """+z (increasing azimuth, "across" for a target along +x) points down, as in the other top views; the arrow
+    spans at most the view's half height (70 px) at wind_speed_max, any wind_speed_max."""
+    from vegym.render import canvas
+
+    top_rows = slice(320, 461)  # the top view's rectangle; its line of fire is row 390
+    for wind_speed_max in (5.0, 20.0):
+        frame = projectile_frame((0.0, 0.0, wind_speed_max), wind_speed_max=wind_speed_max, speed_max=60.0)
+        rows, _ = np.nonzero(np.all(frame == canvas.GREEN, axis=-1))
+        assert len(rows) > 0 and rows.min() >= top_rows.start - 1 and rows.max() < top_rows.stop
+        assert rows.mean() > 390 + 20  # the arrow points down
+
+
+def test_billiards_frame_after_the_strike_takes_in_both_rest_points(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every ball circle drawn (starts, contact and rest points) has its centre inside the table's rectangle,
+    for random strikes, which send the balls far."""
+    centres: list[tuple[tuple[int, int], Any]] = []
+    circle = canvas.Panel.circle
+
+    def recording_circle(panel: canvas.Panel, center, *args, **kwargs) -> None:  # noqa: ANN001, ANN003, ANN002
+        centres.append((panel.to_px(*center), panel.rect.copy()))
+        circle(panel, center, *args, **kwargs)
+
+    monkeypatch.setattr(canvas.Panel, "circle", recording_circle)
+    env = gym.make("vegym/Billiards-v0", render_mode="rgb_array")
+    env.action_space.seed(1)
+    for seed in range(30):
+        env.reset(seed=seed)
+        env.step(env.action_space.sample())
+        centres.clear()
+        env.render()
+        assert len(centres) >= 4
+        for (x, y), rect in centres:
+            assert rect.collidepoint(x, y), (seed, (x, y), rect)

@@ -18,7 +18,8 @@ TARGET: canvas.Color = (250, 215, 60)
 
 
 class BilliardsRenderer:
-    """Draws the start of a single env's episode and, after the strike, both balls' paths to rest.
+    """Draws the start of a single env's episode and, after the strike, both balls' paths to rest (the view
+    then takes in their rest points too).
 
     Seen from above (+y) with the line A-B pointing right: bearings increase clockwise on screen, as in the other
     top views (x right, z down).
@@ -48,7 +49,8 @@ class BilliardsRenderer:
 
         surface = canvas.new_surface(WIDTH, HEIGHT)
         a, b, target = (frame(self.state[k][0]) for k in ("ball_a", "ball_b", "target"))
-        table = self._table(surface, np.array([a, b, target]))
+        shown = [a, b, target, *(frame(self.shot[k]) for k in ("rest_a", "rest_b") if self.shot)]
+        table = self._table(surface, np.array(shown))
         surface.fill(CLOTH, table.rect)
         surface.set_clip(table.rect)
         for mark in np.arange(-5.0, 5.0, 0.25):

@@ -40,9 +40,13 @@ def tick_step(extent: float, finest: float, most: int) -> float:
 
 
 def font(size: int) -> pygame.font.Font:
-    """pygame's default font at ``size`` pixels (cached; needs no display)."""
-    if size not in _FONTS:
+    """pygame's default font at ``size`` pixels (cached; needs no display). The font module is started again,
+    and the cache emptied, when it is not running: never started, or stopped by a ``pygame.quit()`` elsewhere
+    (Gymnasium's ``HumanRendering.close()`` and classic-control envs call it), which leaves old fonts unusable."""
+    if not pygame.font.get_init():
         pygame.font.init()
+        _FONTS.clear()
+    if size not in _FONTS:
         _FONTS[size] = pygame.font.Font(None, size)
     return _FONTS[size]
 

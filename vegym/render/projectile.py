@@ -14,7 +14,12 @@ WIDTH, HEIGHT = 640, 480
 
 
 class ProjectileRenderer:
-    """Draws the launcher, the target, the wind and the last shot of a single env."""
+    """Draws the launcher, the target, the wind and the last shot of a single env.
+
+    The top view is seen from above (+y) with the line of fire to the right, so "across" (increasing azimuth)
+    points down, as in the other top views (x right, z down); the wind arrow spans the view's half width at
+    ``wind_speed_max``.
+    """
 
     def __init__(self, params: ProjectileEnvParams) -> None:
         self.params = params
@@ -36,10 +41,16 @@ class ProjectileRenderer:
         p0 = s["launch_position"]
         surface = canvas.new_surface(WIDTH, HEIGHT)
         reach = p.target_distance_max * 1.15
+        half_width = reach / 8  # of the top view (m)
         side = canvas.Panel(
             surface, (40, 50, WIDTH - 60, 250), (-5.0, reach, -2.0, max(p.launch_height_max, 10.0) * 1.6)
         )
-        top = canvas.Panel(surface, (40, 320, WIDTH - 60, 140), (-5.0, reach, -reach / 8, reach / 8))
+        top = canvas.Panel(surface, (40, 320, WIDTH - 60, 140), (-5.0, reach, -half_width, half_width))
+
+        def top_view(points: np.ndarray) -> np.ndarray:
+            """Points (..., 3) relative to the launcher in the top view's coordinates: along, minus across."""
+            return np.stack([points @ along, -(points @ across)], axis=-1)
+
         for panel in (side, top):
             panel.frame(canvas.LIGHT)
         side.line((-5.0, 0.0), (reach, 0.0), canvas.BLACK, 2)
@@ -50,8 +61,9 @@ class ProjectileRenderer:
             panel.dot((distance, 0.0), 4, canvas.RED)
         wind = s["wind"]
         w_along, w_across = float(wind @ along), float(wind @ across)
-        wind_arrow = np.array([w_along, w_across]) * reach / 40.0
-        top.arrow((reach * 0.8, 0.0), wind_arrow, canvas.GREEN)
+        surface.set_clip(top.rect)
+        top.arrow((reach * 0.8, 0.0), top_view(wind) * 0.9 * half_width / max(p.wind_speed_max, 1e-9), canvas.GREEN)
+        surface.set_clip(None)
         lines = [
             f"target {distance:.1f} m   launch height {p0[1]:.1f} m   "
             f"wind {w_along:+.1f} along, {w_across:+.1f} across m/s"
@@ -61,10 +73,12 @@ class ProjectileRenderer:
             t = np.linspace(0.0, self.shot["flight_time"], 80)
             path = projectile.position_at(p0[None], v0[None], w[None], t, p.physics) - p0
             side.polyline(np.stack([path @ along, path[:, 1] + p0[1]], -1), canvas.BLUE)
-            top.polyline(np.stack([path @ along, path @ across], -1), canvas.BLUE)
             landing = self.shot["landing_point"] - p0
-            for panel, y in ((side, p.radius), (top, float(landing @ across))):
-                panel.dot((float(landing @ along), y), 4, canvas.BLUE)
+            side.dot((float(landing @ along), p.radius), 4, canvas.BLUE)
+            surface.set_clip(top.rect)
+            top.polyline(top_view(path), canvas.BLUE)
+            top.dot(tuple(top_view(landing)), 4, canvas.BLUE)
+            surface.set_clip(None)
             speed = float(np.linalg.norm(v0))
             elevation = np.degrees(np.arcsin(v0[1] / speed)) if speed > 0 else 0.0
             verdict = "HIT" if self.shot["is_success"] else "miss"
