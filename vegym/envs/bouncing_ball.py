@@ -364,7 +364,12 @@ class BouncingBallTask(Task[BouncingBallParams]):
 
     @property
     def control_rate(self) -> float:
-        return 2.0
+        """Bounces per simulated second of a ball bouncing to the middle of the target range: one step is one
+        bounce, whose flight ``2 sqrt(2 (h - r) / g)`` lasts as long as its apex h asks (0.94 per second with the
+        defaults; the reference controller's episodes average about 1)."""
+        p = self.params
+        middle = 0.5 * (p.target_min + p.target_max)
+        return 1.0 / (2.0 * float(particle.time_to_ground(middle, 0.0, p.radius, p.gravity)))
 
     def targets(self, keys: np.ndarray, count: int) -> np.ndarray:
         """The first ``count`` target apex heights (m) of each episode, shape (n, count)."""
