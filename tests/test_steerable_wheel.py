@@ -196,6 +196,10 @@ def test_bad_parameters_raise_value_error_naming_them(name: str, value: float, m
 
 
 def test_rendered_frame_shows_the_arena_and_changes_as_the_wheel_rolls() -> None:
+    """The top view (seen from above: x right, z down) draws the arena's edge, the next waypoint (red dot) and the
+    wheel (black footprint, green heading arrow) where the state has them; the side view's spokes turn."""
+    from vegym.render import canvas
+
     env = gym.make(ENV_ID, render_mode="rgb_array")
     env.reset(seed=1)
     first = env.render()
@@ -204,3 +208,16 @@ def test_rendered_frame_shows_the_arena_and_changes_as_the_wheel_rolls() -> None
     later = env.render()
     assert first.shape == later.shape == (640, 880, 3)
     assert np.any(first[70:270, 600:860] != later[70:270, 600:860])  # the side view's spokes have turned
+    p, state = env.unwrapped.params, env.unwrapped.state
+    h, pad = p.half_size, 0.04 * p.arena_size
+    world = (-h - pad, h + pad, -h - pad, h + pad)
+    top = canvas.Panel(canvas.new_surface(880, 640), (20, 70, 560, 560), world, equal_aspect=True)
+
+    def colours_near(x: float, z: float) -> set[tuple[int, ...]]:
+        column, row = top.to_px(x, -z)
+        return {tuple(c) for c in later[row - 2 : row + 3, column - 2 : column + 3].reshape(-1, 3)}
+
+    assert canvas.BLACK in colours_near(-h, 0.0) and canvas.BLACK in colours_near(0.0, h)
+    waypoint = state["waypoints"][0, int(state["index"][0])]
+    assert colours_near(*waypoint) == {canvas.RED}
+    assert {canvas.BLACK, canvas.GREEN} <= colours_near(*state["position"][0])
