@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 import vegym  # noqa: F401
+from vegym.envs.base import load_object
 from vegym.render import canvas
 from vegym.render.gear_train import MOST_TEETH, TOOTH_PITCH, gear_outline
 
@@ -124,3 +125,19 @@ def test_billiards_frame_after_the_strike_takes_in_both_rest_points(monkeypatch:
         assert len(centres) >= 4
         for (x, y), rect in centres:
             assert rect.collidepoint(x, y), (seed, (x, y), rect)
+
+
+def test_a_state_put_back_restarts_the_renderers_record_from_it() -> None:
+    """The frame after a snapshot is put back shows that state alone, not the trail of the steps it undid."""
+    env = gym.make("vegym/SteerableWheel-v0", render_mode="rgb_array")
+    env.reset(seed=0)
+    action = np.array([1.0, 0.3], np.float32)
+    for _ in range(10):
+        env.step(action)
+    snapshot = {name: value.copy() for name, value in env.unwrapped.state.items()}
+    for _ in range(40):
+        env.step(action)
+    env.unwrapped.state = snapshot
+    renderer = load_object(env.unwrapped.task.renderer)(env.unwrapped.params)
+    renderer.reset({name: value.copy() for name, value in snapshot.items()})
+    np.testing.assert_array_equal(env.render(), renderer.draw())

@@ -350,8 +350,8 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
     parameter dataclass, so every keyword lands in ``spec.kwargs`` and an unknown one raises ``TypeError``.
     The state arrays are allocated at the first reset, the action and output arrays in ``__init__``, and all are
     reused, the task's kernels bound to them (a new ``env.state`` dict, a snapshot put back say, is bound at the
-    next step or reset; an array replaced inside the dict is not seen: update arrays in place); what ``step`` and
-    ``reset`` return are fresh copies.
+    next step, reset or render, and the renderer's record starts again from it; an array replaced inside the dict
+    is not seen: update arrays in place); what ``step`` and ``reset`` return are fresh copies.
     """
 
     task_cls: ClassVar[type[Task]]
@@ -388,6 +388,13 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
         self._read_step = state["step"][:1].item
         self.state = self._bound_state = state
 
+    def _adopt(self, state: State) -> None:
+        """Bind ``state``, a dict put in place of ``self.state`` (a snapshot put back, say), and start the
+        renderer's record (its trail, the shots it shows) again from it."""
+        self._bind(state)
+        if self.render_mode is not None:
+            self._get_renderer().reset(self._snapshot())
+
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, Info]:
         super().reset(seed=seed)
         state = self.state
@@ -417,7 +424,7 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
         if state is None or state is not self._bound_state:
             if state is None:
                 raise gym.error.ResetNeeded("Call reset() before step().")
-            self._bind(state)
+            self._adopt(state)
         self._load_action(action)
         if self._run_step():
             self.task.after_step(state, self._out)
@@ -439,6 +446,8 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
             return None
         if self.state is None:
             raise gym.error.ResetNeeded("Call reset() before render().")
+        if self.state is not self._bound_state:
+            self._adopt(self.state)
         frame = self._get_renderer().draw()
         if self.render_mode == "rgb_array":
             return frame
