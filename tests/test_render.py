@@ -1,4 +1,5 @@
-"""Renderers: scene decorations (grid lines, labels, gear teeth) stay few however large the scene."""
+"""Renderers: decorations stay few however large the scene; frames survive pygame.quit() and share one display;
+views show what the state has (orientation, rest points, a state put back)."""
 
 from __future__ import annotations
 
