@@ -51,7 +51,8 @@ NOISE_TYPES: dict[str, type[ActionNoise]] = {
 """Exploration noise of the off-policy algorithms (``noise_type``), RL-Zoo names."""
 
 NAMED_CLASSES = {"activation_fn": (torch.nn, torch.nn.Module), "optimizer_class": (torch.optim, torch.optim.Optimizer)}
-"""``policy_kwargs`` entries that name a torch class (``nn.Tanh``, ``optim.Adam``): its module and base class."""
+"""``policy_kwargs`` entries that name a torch class (``nn.Tanh``, ``th.optim.Adam``; RL Zoo evaluates the string
+with ``nn`` and ``th`` in scope, so ``optim.Adam`` alone works here only): its module and base class."""
 
 SCHEDULE_PREFIX = "lin_"
 
@@ -111,7 +112,8 @@ class TrainConfig:
         return ALGOS[self.algo]
 
     def to_entry(self) -> dict[str, Any]:
-        """The flat YAML entry (RL-Zoo layout) that loads back into this config, with ``env_id`` and ``algo``."""
+        """The flat YAML entry that loads back into this config, with ``env_id`` and ``algo`` (a run's record: RL
+        Zoo's keys plus vegym's, not an RL Zoo file)."""
         entry = {f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name != "hyperparams"}
         return {**entry, **self.hyperparams}
 

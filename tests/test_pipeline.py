@@ -25,6 +25,7 @@ from agents.cli import main
 from agents.config import (
     ALGOS,
     CONFIG_DIR,
+    SCHEDULE_PREFIX,
     ConfigError,
     LinearDecay,
     load_config,
@@ -73,6 +74,21 @@ def test_committed_config_loads_and_builds_its_model(path: Path, env_id: str) ->
                 assert getattr(model, key) == config.hyperparams[key], key
     finally:
         env.close()
+
+
+@pytest.mark.parametrize("path", CONFIG_FILES, ids=[p.stem for p in CONFIG_FILES])
+def test_committed_configs_read_as_rl_zoo_reads_them(path: Path) -> None:
+    """RL Zoo loads these files with plain ``yaml.safe_load``: it takes n_timesteps with ``int()`` and any string
+    learning rate as a schedule ``<kind>_<start>``, and passes every key it does not know to the algorithm, which
+    refuses vegym's own (checked with rl_zoo3 2.9.2: all 19 entries build their models)."""
+    import yaml
+
+    vegym_only = {"seed", "eval_freq", "n_eval_episodes", "save_freq"}
+    for env_id, entry in yaml.safe_load(path.read_text()).items():
+        assert isinstance(entry["n_timesteps"], (int, float)), env_id
+        rate = entry.get("learning_rate", 3e-4)
+        assert isinstance(rate, float) or (rate.startswith(SCHEDULE_PREFIX) and float(rate.split("_")[1]) > 0), env_id
+        assert not vegym_only & set(entry), env_id
 
 
 def test_resolved_config_round_trips(tmp_path: Path) -> None:
