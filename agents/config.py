@@ -38,8 +38,10 @@ from vegym.envs.base import load_object
 ALGOS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC, "td3": TD3}
 """The algorithms a config may name (its file name)."""
 
-CONFIG_DIR = Path(__file__).resolve().parent.parent / "configs"
-"""The committed configs: ``<algo>.yml`` for each algorithm."""
+_INSTALLED_CONFIGS = Path(__file__).resolve().parent / "configs"
+CONFIG_DIR = _INSTALLED_CONFIGS if _INSTALLED_CONFIGS.is_dir() else Path(__file__).resolve().parent.parent / "configs"
+"""The committed configs, ``<algo>.yml`` for each algorithm: the checkout's ``configs/``, which a wheel installs as
+``agents/configs/`` (pyproject.toml)."""
 
 PIPELINE_ARGS = frozenset({"self", "policy", "env", "seed", "policy_kwargs", "tensorboard_log", "verbose"})
 """Constructor arguments the pipeline sets itself (``policy``/``seed``/``policy_kwargs`` are config fields)."""

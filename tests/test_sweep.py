@@ -27,8 +27,9 @@ POSTGRES_URL = os.environ.get("VEGYM_TEST_POSTGRES_URL")
 """A PostgreSQL database for the scale-out test; .ci/run starts a server on loopback and sets it."""
 
 
-def sweep_args(storage: str, study: str, trials: int, *extra: str) -> list[str]:
-    """A sweep whose trials take a second or two: TD3 on BouncingBall for 300 steps, 2 evaluation episodes."""
+def sweep_args(storage: str, study: str, trials: int, best: Path, *extra: str) -> list[str]:
+    """A sweep whose trials take a second or two: TD3 on BouncingBall for 300 steps, 2 evaluation episodes; the
+    best config goes to ``best`` (the default is runs/sweeps/ under the working directory)."""
     return [
         *VEGYM,
         "sweep",
@@ -46,6 +47,8 @@ def sweep_args(storage: str, study: str, trials: int, *extra: str) -> list[str]:
         storage,
         "--study",
         study,
+        "--best",
+        str(best),
         *extra,
     ]
 
@@ -84,7 +87,7 @@ def assert_complete_study(storage: str, study: str, trials: int) -> None:
 def run_two_workers(storage: str, study: str, tmp_path: Path) -> None:
     best = tmp_path / "best.yml"
     proc = subprocess.run(
-        [*sweep_args(storage, study, 4, "--workers", "2"), "--best", str(best)],
+        sweep_args(storage, study, 4, best, "--workers", "2"),
         capture_output=True,
         text=True,
         timeout=600,
@@ -111,7 +114,7 @@ def test_two_workers_on_postgresql_record_every_trial_once(tmp_path: Path) -> No
 @pytest.mark.filterwarnings("ignore::optuna.exceptions.ExperimentalWarning")  # retried_trial_number
 def test_killed_worker_leaves_a_study_that_a_second_run_finishes(tmp_path: Path) -> None:
     storage, study = f"sqlite:///{tmp_path / 'study.db'}", "killed"
-    args = sweep_args(storage, study, 3, "--heartbeat", "1")
+    args = sweep_args(storage, study, 3, tmp_path / "best.yml", "--heartbeat", "1")
     worker = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, start_new_session=True)
     deadline = time.monotonic() + 300
     while not training_trials(tmp_path / "study.db"):
@@ -140,7 +143,7 @@ def test_the_other_worker_finishes_the_study_of_a_killed_worker(tmp_path: Path) 
     """--workers 2, one worker killed mid-trial: the other retries its trial and completes the study."""
     storage, study = f"sqlite:///{tmp_path / 'study.db'}", "one-killed"
     command = subprocess.Popen(
-        sweep_args(storage, study, 4, "--workers", "2", "--heartbeat", "1", "--best", str(tmp_path / "best.yml")),
+        sweep_args(storage, study, 4, tmp_path / "best.yml", "--workers", "2", "--heartbeat", "1"),
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
@@ -175,10 +178,14 @@ def test_a_trial_left_before_its_first_heartbeat_is_failed_and_retried(tmp_path:
     Optuna never fails as stale; the next worker must fail and retry it instead of waiting for it forever (this
     hung the killed-worker test under load)."""
     storage, study = f"sqlite:///{tmp_path / 'study.db'}", "orphan"
-    first = subprocess.run(sweep_args(storage, study, 1), capture_output=True, text=True, timeout=600)
+    first = subprocess.run(
+        sweep_args(storage, study, 1, tmp_path / "best.yml"), capture_output=True, text=True, timeout=600
+    )
     assert first.returncode == 0, first.stdout + first.stderr
     orphan = optuna.load_study(study_name=study, storage=storage).ask()  # running, no heartbeat, no worker
-    again = subprocess.run(sweep_args(storage, study, 3), capture_output=True, text=True, timeout=300)
+    again = subprocess.run(
+        sweep_args(storage, study, 3, tmp_path / "best.yml"), capture_output=True, text=True, timeout=300
+    )
     assert again.returncode == 0, again.stdout + again.stderr
     assert_complete_study(storage, study, 3)
     trials = optuna.load_study(study_name=study, storage=storage).get_trials()
@@ -253,7 +260,7 @@ def test_an_env_without_a_config_entry_is_refused_before_the_study_is_created(
 
 def test_sigint_to_the_parent_alone_stops_its_workers(tmp_path: Path) -> None:
     storage = f"sqlite:///{tmp_path / 'study.db'}"
-    args = [*sweep_args(storage, "stopped", 50, "--workers", "2"), "--timesteps", "1000000"]
+    args = [*sweep_args(storage, "stopped", 50, tmp_path / "best.yml", "--workers", "2"), "--timesteps", "1000000"]
     parent = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
     deadline = time.monotonic() + 300
     while training_trials(tmp_path / "study.db") < 2:
