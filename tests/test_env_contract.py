@@ -254,6 +254,35 @@ def test_vector_info_arrays_that_share_the_state_are_read_only(env_id: str) -> N
     assert shared > 0 or not vec.unwrapped.task.episode_constants
 
 
+def test_vector_info_masks_are_one_read_only_array() -> None:
+    """Every ``_name`` mask of a step is the same array: writing into one would change them all."""
+    vec = gym.make_vec("vegym/BouncingBall-v0", num_envs=3, vectorization_mode="vector_entry_point")
+    vec.reset(seed=0)
+    info = vec.step(np.zeros((3, 1), np.float32))[4]
+    masks = [value for path, value in leaves(info) if path.rsplit("/", 1)[-1].startswith("_")]
+    assert len(masks) > 5 and all(mask is masks[0] for mask in masks)
+    with pytest.raises(ValueError, match="read-only"):
+        masks[0][0] = False
+
+
+def test_vector_seeds_span_uint64_and_none_leaves_a_sub_env_unseeded() -> None:
+    """As SyncVectorEnv: any seed in [0, 2**64), and a list entry None draws that sub-env's episode at random."""
+    env_id = "vegym/BouncingBall-v0"
+    vec = gym.make_vec(env_id, num_envs=3, vectorization_mode="vector_entry_point")
+    single = gym.make(env_id)
+    obs, _ = vec.reset(seed=2**63)
+    np.testing.assert_array_equal(obs[1], single.reset(seed=2**63 + 1)[0])
+    first, _ = vec.reset(seed=[5, None, 2**64 - 1])
+    np.testing.assert_array_equal(first[0], single.reset(seed=5)[0])
+    np.testing.assert_array_equal(first[2], single.reset(seed=2**64 - 1)[0])
+    again, _ = vec.reset(seed=[5, None, 2**64 - 1])
+    np.testing.assert_array_equal(again[[0, 2]], first[[0, 2]])
+    assert not np.array_equal(again[1], first[1])  # the targets are drawn at random: equal with probability ~0
+    for bad in (2**64 - 2, [1, 2, 2**64], [1, -1, 2], [1.5, 2, 3]):
+        with pytest.raises(ValueError, match="seed"):
+            vec.reset(seed=bad)
+
+
 @pytest.mark.parametrize("env_id", ENV_IDS)
 def test_threaded_chunks_step_exactly_as_one_chunk(env_id: str, monkeypatch: pytest.MonkeyPatch) -> None:
     n = 64

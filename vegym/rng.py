@@ -9,6 +9,8 @@ exactly the same numbers whatever the other sub-envs do, resets included. A vect
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 from numba import njit
 
@@ -52,10 +54,16 @@ def _mix(z: np.ndarray) -> np.ndarray:
     return _mix_each(np.ascontiguousarray(z).reshape(-1)).reshape(z.shape)[()]  # [()]: a scalar for a 0-d input
 
 
-def seed_keys(seeds: np.ndarray | int) -> np.ndarray:
-    """Episode keys from integer seeds (any shape)."""
-    s = np.asarray(seeds, dtype=np.int64).astype(np.uint64)
-    return _mix(s * _GOLDEN + _GOLDEN)
+def seed_keys(seeds: np.ndarray | Sequence[int] | int) -> np.ndarray:
+    """Episode keys from integer seeds in [0, 2**64) (any shape); ValueError for any other seed."""
+    s = seeds if isinstance(seeds, np.ndarray) else np.array(seeds, dtype=object)  # numpy would guess a dtype
+    if s.dtype == object:  # Python ints, checked one by one
+        if not all(isinstance(x, (int, np.integer)) and 0 <= x < 2**64 for x in s.flat):
+            raise ValueError(f"seeds must be integers in [0, 2**64); got {seeds!r}")
+        s = s.astype(np.uint64)
+    elif s.dtype.kind not in "iu" or (s.dtype.kind == "i" and s.size and s.min() < 0):
+        raise ValueError(f"seeds must be integers in [0, 2**64); got {seeds!r}")
+    return _mix(s.astype(np.uint64) * _GOLDEN + _GOLDEN)
 
 
 def next_key(keys: np.ndarray) -> np.ndarray:

@@ -607,12 +607,21 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         self._autoreset[:] = False
         return self._observe(), {}
 
-    def _seed_keys(self, seed: int | list[int]) -> np.ndarray:
+    def _seed_keys(self, seed: int | list[int | None]) -> np.ndarray:
+        """Keys of sub-env seeds ``seed + i``, or of a list of one seed per sub-env, where None leaves that sub-env
+        unseeded (as SyncVectorEnv does): its key drawn from ``np_random``."""
+        n = self.num_envs
         if isinstance(seed, int):
-            return rng.seed_keys(seed + np.arange(self.num_envs))
-        if len(seed) != self.num_envs:
-            raise ValueError(f"seed has {len(seed)} entries; expected num_envs={self.num_envs}")
-        return rng.seed_keys(np.asarray(seed))
+            if not 0 <= seed <= 2**64 - n:
+                raise ValueError(f"seed={seed} gives sub-env seeds seed + i outside [0, 2**64) for num_envs={n}")
+            return rng.seed_keys(np.uint64(seed) + np.arange(n, dtype=np.uint64))
+        if len(seed) != n:
+            raise ValueError(f"seed has {len(seed)} entries; expected num_envs={n}")
+        seeded = np.array([s is not None for s in seed], dtype=bool)
+        keys = np.empty(n, np.uint64) if seeded.all() else self.np_random.integers(0, 2**64, n, np.uint64)
+        if seeded.any():
+            keys[seeded] = rng.seed_keys([s for s in seed if s is not None])
+        return keys
 
     def _reset_masked(self, seed: int | list[int] | None, mask: Any) -> tuple[np.ndarray, Info]:
         mask = np.asarray(mask)
@@ -651,7 +660,9 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         The task steps the whole batch (its randomness is a pure function of each episode's key, so the
         discarded rows of resetting sub-envs draw nothing that others see), unless every sub-env resets (one-step
         episodes do so every other step): then its outputs are zeros. Resetting rows then start fresh episodes
-        and report reward 0, not terminated, not truncated, and masked-out infos.
+        and report reward 0, not terminated, not truncated, and masked-out infos: every ``_name`` mask is the
+        same read-only array, False for those rows, whose info values are left over from the discarded step
+        (SyncVectorEnv fills them with zeros; read infos through the masks).
         """
         state = self.state
         if state is None:
@@ -671,6 +682,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         max_steps = self.max_episode_steps if self.max_episode_steps is not None else np.iinfo(np.int64).max
         reward, terminated = out["reward"], out["terminated"]
         rows = _end_step(state["step"], resetting, max_steps, reward, terminated, active, truncated, self._autoreset)
+        active.flags.writeable = False  # the one mask of every info entry
         info = self._vector_info(self.task.info(state, out), active, *self._state_ids(state))
         if len(rows):
             self._renew_episode_constants(every_row=every_resets)
