@@ -254,6 +254,42 @@ def test_vector_info_arrays_that_share_the_state_are_read_only(env_id: str) -> N
     assert shared > 0 or not vec.unwrapped.task.episode_constants
 
 
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_vector_env_frames_are_the_single_envs_frames_through_autoresets(env_id: str) -> None:
+    n, limit = 3, 3
+    vec = gym.make_vec(
+        env_id, num_envs=n, vectorization_mode="vector_entry_point", render_mode="rgb_array", max_episode_steps=limit
+    )
+    singles = [gym.make(env_id, render_mode="rgb_array", max_episode_steps=limit) for _ in range(n)]
+    vec.reset(seed=10)
+    for i, env in enumerate(singles):
+        env.reset(seed=10 + i)
+    autoreset = np.zeros(n, dtype=bool)
+    for actions in random_actions(env_id, 7 * n, seed=2).reshape(7, n, -1):
+        frames = vec.render()
+        assert isinstance(frames, tuple) and len(frames) == n
+        for frame, env in zip(frames, singles, strict=True):
+            np.testing.assert_array_equal(frame, env.render())
+        _, _, terminated, truncated, _ = vec.step(actions)
+        for i, env in enumerate(singles):
+            env.reset() if autoreset[i] else env.step(actions[i])
+        autoreset = terminated | truncated
+
+
+def test_vector_env_render_modes_and_calls() -> None:
+    def make(render_mode: str | None) -> gym.vector.VectorEnv:
+        return gym.make_vec("vegym/GearTrain-v0", 2, vectorization_mode="vector_entry_point", render_mode=render_mode)
+
+    with pytest.raises(ValueError, match=r"render_mode='human' is not one of \['rgb_array'\]"):
+        make("human")
+    with pytest.raises(gym.error.ResetNeeded):
+        make("rgb_array").render()
+    plain = make(None)
+    plain.reset(seed=0)
+    with pytest.warns(UserWarning, match="without a render_mode"):
+        assert plain.render() is None
+
+
 def test_vector_info_masks_are_one_read_only_array() -> None:
     """Every ``_name`` mask of a step is the same array: writing into one would change them all."""
     vec = gym.make_vec("vegym/BouncingBall-v0", num_envs=3, vectorization_mode="vector_entry_point")

@@ -303,6 +303,16 @@ def rows_of(arrays: State, rows: slice | np.ndarray) -> State:
     return {name: value[rows] for name, value in arrays.items()}
 
 
+def _info_rows(info: Mapping[str, Any], rows: slice) -> Info:
+    """The rows ``rows`` of a vector env's (nested) info, whose values are all arrays, without its ``_name``
+    masks."""
+    return {
+        name: _info_rows(value, rows) if isinstance(value, Mapping) else value[rows]
+        for name, value in info.items()
+        if not name.startswith("_")
+    }
+
+
 def row_reader(info: Mapping[str, Any]) -> Callable[[], Info]:
     """A function that reads row 0 of the batched (nested) info dict ``info`` into a fresh dict: Python scalars
     from 1-d arrays, copies of the row of others, Python scalars (constants) as they are. Built once over views
@@ -549,19 +559,24 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
     observation with reward 0 and ``terminated = truncated = False``. Truncation comes from
     ``max_episode_steps`` (``make_vec`` passes the registered value). The state is updated in place, but for the
     task's episode constants, which get new arrays when episodes start. No returned array is ever written again:
-    they are fresh or read-only (the infos' views of the episode constants and arrays of constants).
+    they are fresh or read-only (the infos' views of the episode constants and arrays of constants). With
+    ``render_mode="rgb_array"`` each sub-env has the single env's renderer, fed after every step (a snapshot of
+    its row: slow, for looking, not for training), and ``render()`` returns their frames.
     """
 
     task_cls: ClassVar[type[Task]]
-    metadata: ClassVar[dict[str, Any]] = {"render_modes": [], "autoreset_mode": AutoresetMode.NEXT_STEP}
+    metadata: ClassVar[dict[str, Any]] = {"render_modes": ["rgb_array"], "autoreset_mode": AutoresetMode.NEXT_STEP}
 
     def __init__(
         self, num_envs: int = 1, max_episode_steps: int | None = None, render_mode: str | None = None, **params: Any
     ) -> None:
         num_envs = _count("num_envs", num_envs)
         max_episode_steps = None if max_episode_steps is None else _count("max_episode_steps", max_episode_steps)
-        if render_mode is not None:
-            raise ValueError(f"render_mode={render_mode!r}: the vector env does not render; render a single env")
+        if render_mode not in (None, *self.metadata["render_modes"]):
+            raise ValueError(
+                f"render_mode={render_mode!r} is not one of {self.metadata['render_modes']} (a vector env returns its "
+                "sub-envs' frames; a window shows a single env: gymnasium.make(id, render_mode='human'))"
+            )
         self.task = self.task_cls(self.task_cls.params_cls(**params))
         self.params: P = self.task.params  # type: ignore[assignment]
         self.num_envs = num_envs
@@ -577,6 +592,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         self._autoreset = np.zeros(num_envs, dtype=bool)
         self._every = np.arange(num_envs)
         self._constant_arrays: dict[str, tuple[Any, np.ndarray]] = {}
+        self._renderers: list[Any] = []
 
     def reset(
         self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None
@@ -605,6 +621,8 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         step_arrays = (*self.state.values(), *self.task.outputs(self.num_envs).values())
         _recycle_step_memory(2 * sum(array.nbytes for array in step_arrays))
         self._autoreset[:] = False
+        if self.render_mode is not None:
+            self._restart_renderers(self._every)
         return self._observe(), {}
 
     def _seed_keys(self, seed: int | list[int | None]) -> np.ndarray:
@@ -632,6 +650,8 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         keys = rng.next_key(self.state["key"][mask]) if seed is None else self._seed_keys(seed)[mask]
         self._start(np.flatnonzero(mask), keys)
         self._autoreset[mask] = False
+        if self.render_mode is not None:
+            self._restart_renderers(np.flatnonzero(mask))
         return self._observe(), {}
 
     def _start(self, rows: np.ndarray, keys: np.ndarray) -> None:
@@ -691,7 +711,42 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             _in_chunks(n, lambda r: self.task.restart(rows_of(state, r), every[: r.stop - r.start], out["obs"][r]))
         elif len(rows):
             self.task.restart(state, rows, out["obs"])
+        if self.render_mode is not None:
+            self._record_renderers(rows, info)
         return out["obs"], reward, terminated, truncated, info
+
+    def render(self) -> tuple[np.ndarray, ...] | None:
+        """The frame of every sub-env (``render_mode="rgb_array"``): a tuple of uint8 (height, width, 3) arrays, as
+        a single env of each would draw it."""
+        if self.render_mode is None:
+            gym.logger.warn("render() called without a render_mode; pass render_mode='rgb_array' to make_vec().")
+            return None
+        if self.state is None:
+            raise gym.error.ResetNeeded("Call reset() before render().")
+        return tuple(renderer.draw() for renderer in self._renderers)
+
+    def _row_snapshot(self, i: int) -> State:
+        """A copy of sub-env ``i``'s state, as a single env holds it (a batch of one)."""
+        assert self.state is not None
+        return {name: value[i : i + 1].copy() for name, value in self.state.items()}
+
+    def _restart_renderers(self, rows: np.ndarray) -> None:
+        """Start the renderers' records of the sub-envs ``rows`` (int indices) from their state (a first one makes
+        a renderer per sub-env)."""
+        if not self._renderers:
+            self._renderers = [load_object(self.task.renderer)(self.params) for _ in range(self.num_envs)]
+        for i in rows:
+            self._renderers[i].reset(self._row_snapshot(i))
+
+    def _record_renderers(self, resetting: np.ndarray, info: Info) -> None:
+        """Give each sub-env's renderer its step (state after it, and its row of ``info``), as a single env's step
+        does, or a fresh start for the ``resetting`` rows (int indices)."""
+        started = set(resetting.tolist())
+        for i, renderer in enumerate(self._renderers):
+            if i in started:
+                renderer.reset(self._row_snapshot(i))
+            else:
+                renderer.record(self._row_snapshot(i), row_reader(_info_rows(info, slice(i, i + 1)))())
 
     def _state_ids(self, state: State) -> tuple[set[int], set[int]]:
         """The ids of the state arrays that later steps update in place, and of the episode constants."""
