@@ -19,25 +19,28 @@ from gymnasium.vector import AutoresetMode, VectorEnv
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvObs, VecEnvStepReturn
 
 
-def _item(value: Any) -> Any:
-    """One sub-env's entry of a vector info array, as the single env would report it."""
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, np.ndarray):
-        return value.copy()
-    return value
+def _entries(value: Any, num_envs: int) -> list[Any]:
+    """Every sub-env's entry of a vector info value, as the single env would report it: Python scalars from a 1-d
+    array (one ``tolist``, also for object arrays), rows of one fresh copy of a wider array, split nested dicts."""
+    if isinstance(value, Mapping):
+        return split_info(value, num_envs)
+    if value.ndim == 1:
+        return value.tolist()
+    return list(np.array(value))
 
 
 def split_info(info: Mapping[str, Any], num_envs: int) -> list[dict[str, Any]]:
-    """Gymnasium's vector info (arrays with ``_key`` masks, nested dicts alike) as one dict per sub-env."""
+    """Gymnasium's vector info (arrays with ``_key`` masks, nested dicts alike) as one dict per sub-env. Each value
+    is converted as a whole, not entry by entry: at 16 envs this took 160-190 us of a 220-250 us adapter step."""
     out: list[dict[str, Any]] = [{} for _ in range(num_envs)]
+    every = range(num_envs)
     for key, value in info.items():
         if key.startswith("_"):
             continue
-        mask = info.get(f"_{key}", np.ones(num_envs, dtype=bool))
-        parts = split_info(value, num_envs) if isinstance(value, Mapping) else None
-        for i in np.flatnonzero(mask):
-            out[i][key] = parts[i] if parts is not None else _item(value[i])
+        entries = _entries(value, num_envs)
+        mask = info.get(f"_{key}")
+        for i in every if mask is None or mask.all() else np.flatnonzero(mask).tolist():
+            out[i][key] = entries[i]
     return out
 
 
