@@ -41,7 +41,7 @@ ALGOS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC, "td3": TD3}
 _INSTALLED_CONFIGS = Path(__file__).resolve().parent / "configs"
 CONFIG_DIR = _INSTALLED_CONFIGS if _INSTALLED_CONFIGS.is_dir() else Path(__file__).resolve().parent.parent / "configs"
 """The committed configs, ``<algo>.yml`` for each algorithm: the checkout's ``configs/``, which a wheel installs as
-``agents/configs/`` (pyproject.toml)."""
+``agents/configs/`` (setup.py's build hook)."""
 
 PIPELINE_ARGS = frozenset({"self", "policy", "env", "seed", "policy_kwargs", "tensorboard_log", "verbose"})
 """Constructor arguments the pipeline sets itself (``policy``/``seed``/``policy_kwargs`` are config fields)."""

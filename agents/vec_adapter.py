@@ -24,6 +24,7 @@ def _entries(value: Any, num_envs: int) -> list[Any]:
     array (one ``tolist``, also for object arrays), rows of one fresh copy of a wider array, split nested dicts."""
     if isinstance(value, Mapping):
         return split_info(value, num_envs)
+    value = np.asarray(value)  # a wrapper's list, say
     if value.ndim == 1:
         return value.tolist()
     return list(np.array(value))
@@ -39,7 +40,7 @@ def split_info(info: Mapping[str, Any], num_envs: int) -> list[dict[str, Any]]:
             continue
         entries = _entries(value, num_envs)
         mask = info.get(f"_{key}")
-        for i in every if mask is None or mask.all() else np.flatnonzero(mask).tolist():
+        for i in every if mask is None or np.all(mask) else np.flatnonzero(mask).tolist():
             out[i][key] = entries[i]
     return out
 
@@ -62,9 +63,7 @@ class VectorEnvAdapter(VecEnv):
         self._actions: np.ndarray | None = None
 
     def reset(self) -> VecEnvObs:
-        seeds = None if all(s is None for s in self._seeds) else self._seeds
-        if seeds is not None and any(s is None for s in seeds):
-            raise ValueError(f"seeds {seeds!r}: seed either every sub-env or none")
+        seeds = None if all(s is None for s in self._seeds) else self._seeds  # a None entry: that sub-env unseeded
         options = self._options[0]
         if any(o != options for o in self._options):
             raise ValueError("a native vector env takes one options dict for all sub-envs")

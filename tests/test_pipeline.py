@@ -36,7 +36,7 @@ from agents.config import (
 from agents.evaluation import EVAL_SEED, agent_factory, evaluate, evaluate_agents, load_learned
 from agents.multiseed import SeedOutcome
 from agents.training import TrainResult, build_model, make_env, resume_config, saved_timesteps, train
-from agents.vec_adapter import VectorEnvAdapter
+from agents.vec_adapter import VectorEnvAdapter, split_info
 
 CONFIG_FILES = sorted(CONFIG_DIR.glob("*.yml"))
 COMMITTED = [(path, env_id) for path in CONFIG_FILES for env_id in load_configs(path)]
@@ -244,6 +244,22 @@ def test_adapter_over_gymnasium_sync_vector_env_equals_dummy_vec_env() -> None:
     sync = SyncVectorEnv([lambda: gym.make(env_id, max_episode_steps=limit) for _ in range(n)])
     assert sync.metadata["autoreset_mode"] == AutoresetMode.NEXT_STEP
     assert run_both(env_id, VectorEnvAdapter(sync), n, limit) > 0
+
+
+def test_split_info_takes_lists_and_partial_masks_as_sync_vector_env_infos() -> None:
+    """A wrapper may put lists in a vector info; entries whose mask is False are left out."""
+    info = {
+        "level": [1, 2, 3],
+        "_level": [True, True, True],
+        "pos": np.arange(6.0).reshape(3, 2),
+        "_pos": np.array([True, False, True]),
+        "terms": {"a": np.array([0.5, 1.5, 2.5]), "_a": np.array([False, True, True])},
+        "_terms": np.array([True, True, True]),
+    }
+    rows = split_info(info, 3)
+    assert [row["level"] for row in rows] == [1, 2, 3] and "pos" not in rows[1]
+    np.testing.assert_array_equal(rows[2]["pos"], [4.0, 5.0])
+    assert rows[0]["terms"] == {} and rows[1]["terms"] == {"a": 1.5}
 
 
 def test_adapter_acts_on_the_whole_native_vector_env_and_refuses_some_indices() -> None:

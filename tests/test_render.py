@@ -3,6 +3,9 @@ views show what the state has (orientation, rest points, a state put back)."""
 
 from __future__ import annotations
 
+import gc
+import subprocess
+import sys
 from typing import Any
 
 import gymnasium as gym
@@ -47,14 +50,21 @@ def test_huge_scenes_draw_their_frames(env_id: str, params: dict) -> None:
 
 
 def test_frames_still_draw_after_pygame_quit_elsewhere() -> None:
-    """Gymnasium's HumanRendering.close() and classic-control envs call pygame.quit(), which stops the fonts."""
-    import pygame
-
-    env = gym.make("vegym/GearTrain-v0", render_mode="rgb_array")
-    env.reset(seed=0)
-    before = env.render()
-    pygame.quit()
-    np.testing.assert_array_equal(env.render(), before)
+    """Gymnasium's HumanRendering.close() and classic-control envs call pygame.quit(), which stops the fonts; a
+    stale font crashes the process when pygame was started again (so the check runs in a child process)."""
+    check = (
+        "import gymnasium as gym, numpy as np, pygame, vegym\n"
+        "env = gym.make('vegym/GearTrain-v0', render_mode='rgb_array')\n"
+        "env.reset(seed=0)\n"
+        "before = env.render()\n"
+        "pygame.quit()\n"
+        "np.testing.assert_array_equal(env.render(), before)\n"
+        "pygame.quit()\n"
+        "pygame.init()\n"
+        "np.testing.assert_array_equal(env.render(), before)\n"
+    )
+    child = subprocess.run([sys.executable, "-c", check], capture_output=True, text=True, timeout=120)
+    assert child.returncode == 0, child.stderr[-2000:]
 
 
 def test_human_windows_of_two_envs_take_turns_and_the_last_one_closed_closes_the_display() -> None:
@@ -74,6 +84,19 @@ def test_human_windows_of_two_envs_take_turns_and_the_last_one_closed_closes_the
     pendulum.step(pendulum.action_space.sample())
     assert pygame.display.get_init() and pygame.display.get_surface().get_size() == sizes[1]
     pendulum.close()
+    assert not pygame.display.get_init()
+
+
+def test_a_window_dropped_without_close_does_not_keep_the_display_open() -> None:
+    import pygame
+
+    dropped = gym.make("vegym/GearTrain-v0", render_mode="human")
+    dropped.reset(seed=0)
+    del dropped
+    gc.collect()
+    kept = gym.make("vegym/PendulumPump-v0", render_mode="human")
+    kept.reset(seed=0)
+    kept.close()
     assert not pygame.display.get_init()
 
 
@@ -142,3 +165,12 @@ def test_a_state_put_back_restarts_the_renderers_record_from_it() -> None:
     renderer = load_object(env.unwrapped.task.renderer)(env.unwrapped.params)
     renderer.reset({name: value.copy() for name, value in snapshot.items()})
     np.testing.assert_array_equal(env.render(), renderer.draw())
+    # at a step: envs with other histories, the same snapshot put back, draw the same frame after it
+    twins = [gym.make("vegym/SteerableWheel-v0", render_mode="rgb_array") for _ in range(2)]
+    for steps, twin in zip((0, 30), twins, strict=True):
+        twin.reset(seed=1)
+        for _ in range(steps):
+            twin.step(action)
+        twin.unwrapped.state = {name: value.copy() for name, value in snapshot.items()}
+        twin.step(action)
+    np.testing.assert_array_equal(twins[0].render(), twins[1].render())

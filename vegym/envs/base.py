@@ -303,14 +303,16 @@ def rows_of(arrays: State, rows: slice | np.ndarray) -> State:
     return {name: value[rows] for name, value in arrays.items()}
 
 
-def _info_rows(info: Mapping[str, Any], rows: slice) -> Info:
-    """The rows ``rows`` of a vector env's (nested) info, whose values are all arrays, without its ``_name``
-    masks."""
-    return {
-        name: _info_rows(value, rows) if isinstance(value, Mapping) else value[rows]
-        for name, value in info.items()
-        if not name.startswith("_")
-    }
+def _info_row(info: Mapping[str, Any], i: int) -> Info:
+    """Sub-env ``i``'s info from a vector env's (nested) info, whose values are all arrays, as the single env
+    reports it (:func:`row_reader`): Python scalars from 1-d arrays, copies of wider rows; no ``_name`` masks."""
+    row: Info = {}
+    for name, value in info.items():
+        if isinstance(value, Mapping):
+            row[name] = _info_row(value, i)
+        elif not name.startswith("_"):
+            row[name] = value[i].item() if value.ndim == 1 else value[i].copy()
+    return row
 
 
 def row_reader(info: Mapping[str, Any]) -> Callable[[], Info]:
@@ -746,7 +748,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             if i in started:
                 renderer.reset(self._row_snapshot(i))
             else:
-                renderer.record(self._row_snapshot(i), row_reader(_info_rows(info, slice(i, i + 1)))())
+                renderer.record(self._row_snapshot(i), _info_row(info, i))
 
     def _state_ids(self, state: State) -> tuple[set[int], set[int]]:
         """The ids of the state arrays that later steps update in place, and of the episode constants."""

@@ -42,11 +42,14 @@ def tick_step(extent: float, finest: float, most: int) -> float:
 def font(size: int) -> pygame.font.Font:
     """pygame's default font at ``size`` pixels (cached; needs no display). The font module is started again,
     and the cache emptied, when it is not running: never started, or stopped by a ``pygame.quit()`` elsewhere
-    (Gymnasium's ``HumanRendering.close()`` and classic-control envs call it), which leaves old fonts unusable."""
+    (Gymnasium's ``HumanRendering.close()`` and classic-control envs call it), which leaves old fonts unusable;
+    ``pygame.quit()`` also empties the cache itself, for code that starts pygame again before the next frame."""
     if not pygame.font.get_init():
         pygame.font.init()
         _FONTS.clear()
     if size not in _FONTS:
+        if not _FONTS:  # pygame.quit() calls its registered functions once and forgets them
+            pygame.register_quit(_FONTS.clear)
         _FONTS[size] = pygame.font.Font(None, size)
     return _FONTS[size]
 

@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 import pygame
 
-_SHOWING: set[Window] = set()
-"""The windows that have shown a frame and are not closed: they share pygame's one display."""
+_SHOWING: weakref.WeakSet[Window] = weakref.WeakSet()
+"""The windows that have shown a frame and are not closed nor collected: they share pygame's one display."""
 
 
 class Window:
