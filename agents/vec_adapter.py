@@ -11,38 +11,13 @@ on the same seeds: observations, rewards, dones and infos, ``TimeLimit.truncated
 
 from __future__ import annotations
 
-from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices, VecEnvObs, VecEnvStepReturn
 
-
-def _entries(value: Any, num_envs: int) -> list[Any]:
-    """Every sub-env's entry of a vector info value, as the single env would report it: Python scalars from a 1-d
-    array (one ``tolist``, also for object arrays), rows of one fresh copy of a wider array, split nested dicts."""
-    if isinstance(value, Mapping):
-        return split_info(value, num_envs)
-    value = np.asarray(value)  # a wrapper's list, say
-    if value.ndim == 1:
-        return value.tolist()
-    return list(np.array(value))
-
-
-def split_info(info: Mapping[str, Any], num_envs: int) -> list[dict[str, Any]]:
-    """Gymnasium's vector info (arrays with ``_key`` masks, nested dicts alike) as one dict per sub-env. Each value
-    is converted as a whole, not entry by entry: at 16 envs this took 160-190 us of a 220-250 us adapter step."""
-    out: list[dict[str, Any]] = [{} for _ in range(num_envs)]
-    every = range(num_envs)
-    for key, value in info.items():
-        if key.startswith("_"):
-            continue
-        entries = _entries(value, num_envs)
-        mask = info.get(f"_{key}")
-        for i in every if mask is None or np.all(mask) else np.flatnonzero(mask).tolist():
-            out[i][key] = entries[i]
-    return out
+from vegym.envs.base import split_info
 
 
 class VectorEnvAdapter(VecEnv):

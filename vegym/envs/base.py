@@ -303,16 +303,31 @@ def rows_of(arrays: State, rows: slice | np.ndarray) -> State:
     return {name: value[rows] for name, value in arrays.items()}
 
 
-def _info_row(info: Mapping[str, Any], i: int) -> Info:
-    """Sub-env ``i``'s info from a vector env's (nested) info, whose values are all arrays, as the single env
-    reports it (:func:`row_reader`): Python scalars from 1-d arrays, copies of wider rows; no ``_name`` masks."""
-    row: Info = {}
-    for name, value in info.items():
-        if isinstance(value, Mapping):
-            row[name] = _info_row(value, i)
-        elif not name.startswith("_"):
-            row[name] = value[i].item() if value.ndim == 1 else value[i].copy()
-    return row
+def _entries(value: Any, num_envs: int) -> list[Any]:
+    """Every sub-env's entry of a vector info value, as the single env would report it: Python scalars from a 1-d
+    array (one ``tolist``, also for object arrays), rows of one fresh copy of a wider array, split nested dicts."""
+    if isinstance(value, Mapping):
+        return split_info(value, num_envs)
+    value = np.asarray(value)  # a wrapper's list, say
+    if value.ndim == 1:
+        return value.tolist()
+    return list(np.array(value))
+
+
+def split_info(info: Mapping[str, Any], num_envs: int) -> list[Info]:
+    """Gymnasium's vector info (arrays with ``_key`` masks, nested dicts alike) as one dict per sub-env, as a single
+    env reports it (the SB3 adapter's ``infos``, a rendering vector env's renderers). Each value is converted as a
+    whole, not entry by entry: entry by entry took 160-190 us of the adapter's 220-250 us step at 16 envs."""
+    out: list[Info] = [{} for _ in range(num_envs)]
+    every = range(num_envs)
+    for key, value in info.items():
+        if key.startswith("_"):
+            continue
+        entries = _entries(value, num_envs)
+        mask = info.get(f"_{key}")
+        for i in every if mask is None or np.all(mask) else np.flatnonzero(mask).tolist():
+            out[i][key] = entries[i]
+    return out
 
 
 def row_reader(info: Mapping[str, Any]) -> Callable[[], Info]:
@@ -743,12 +758,12 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
     def _record_renderers(self, resetting: np.ndarray, info: Info) -> None:
         """Give each sub-env's renderer its step (state after it, and its row of ``info``), as a single env's step
         does, or a fresh start for the ``resetting`` rows (int indices)."""
-        started = set(resetting.tolist())
+        started, infos = set(resetting.tolist()), split_info(info, self.num_envs)
         for i, renderer in enumerate(self._renderers):
             if i in started:
                 renderer.reset(self._row_snapshot(i))
             else:
-                renderer.record(self._row_snapshot(i), _info_row(info, i))
+                renderer.record(self._row_snapshot(i), infos[i])
 
     def _state_ids(self, state: State) -> tuple[set[int], set[int]]:
         """The ids of the state arrays that later steps update in place, and of the episode constants."""
