@@ -24,7 +24,7 @@ from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 
 import vegym  # noqa: F401 (registers the envs)
-from agents.config import CONFIG_DIR, TrainConfig, load_configs
+from agents.config import CONFIG_DIR, TrainConfig, load_configs, resolve_env_id
 from agents.training import build_model, make_env
 
 REFERENCE = "Pendulum-v1"
@@ -98,7 +98,10 @@ def main() -> None:
     args = parser.parse_args()
     if args.rollouts < 1 or args.pairs < 1:
         parser.error(f"--rollouts and --pairs must be at least 1; got {args.rollouts} and {args.pairs}")
-    env_ids = [env_id if env_id.startswith("vegym/") else f"vegym/{env_id}" for env_id in args.envs]
+    try:
+        env_ids = [resolve_env_id(name) for name in args.envs]
+    except ValueError as exc:
+        parser.error(str(exc))
     unknown = [env_id for env_id in env_ids if env_id not in configs]
     if unknown:
         parser.error(f"no PPO entry for: {', '.join(unknown)} (entries: {', '.join(configs)})")

@@ -22,6 +22,7 @@ import gymnasium as gym
 
 import vegym
 from agents.analytic import controller_for
+from agents.config import resolve_env_id
 
 CARTPOLE = "CartPole-v1"
 VECTOR_SIZES = (1, 64, 1024, 8192)
@@ -147,10 +148,10 @@ def main() -> None:
         "--envs", nargs="+", default=list(vegym.ENVS), help="vegym env ids, e.g. Aircraft-v0 (default: all)"
     )
     args = parser.parse_args()
-    env_ids = [env_id if env_id.startswith("vegym/") else f"vegym/{env_id}" for env_id in args.envs]
-    unknown = [env_id for env_id in env_ids if env_id not in vegym.ENVS]
-    if unknown:
-        parser.error(f"not vegym envs: {', '.join(unknown)} (registered: {', '.join(vegym.ENVS)})")
+    try:
+        env_ids = [resolve_env_id(name) for name in args.envs]
+    except ValueError as exc:
+        parser.error(str(exc))
     results = measure(env_ids, args.seconds)
     print(json.dumps(results, indent=2) if args.json else table(results))
 
