@@ -269,6 +269,23 @@ class SuspensionSkyhook(AnalyticController):
         return (2.0 * (damping - p.damping_min) / (p.damping_max - p.damping_min) - 1.0)[:, None]
 
 
+class SuspensionContinuousSkyhook(SuspensionSkyhook):
+    """Continuous (clipped) skyhook: the stronger reference on Suspension-v0.
+
+    Where the on-off law is stiff, the damper takes the coefficient whose force ``-c (v - v_b)`` equals the sky
+    damper's ``-c_sky v``, clipped to ``[c_min, c_max]``, with ``c_sky = c_max``
+    (:func:`~vegym.physics.suspension.continuous_skyhook_damping`); it follows the sky force instead of switching
+    between the extremes. It needs the ratio of the observed velocities, exact unless one of them is clipped.
+    """
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        p = self.params
+        damping = suspension.continuous_skyhook_damping(
+            obs[:, 1].astype(np.float64), obs[:, 2].astype(np.float64), p.damping_max, p.damping_min, p.damping_max
+        )
+        return (2.0 * (damping - p.damping_min) / (p.damping_max - p.damping_min) - 1.0)[:, None]
+
+
 class PendulumEnergyPumping(AnalyticController):
     """Energy pumping (PHYSICS.md section 7): ``tau = sat(k_E (E* - E) omega, +-tau_max)``, from the observation.
 

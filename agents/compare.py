@@ -216,7 +216,8 @@ def markdown(
         "normalized = (R - R_random) / (R_analytic - R_random) per episode, averaged; IQM: the interquartile mean "
         "of the same scores; [95% CI]: bootstrap resampling the training seeds and, shared by them, the episodes; "
         "*vs reference*: the mean against a stronger reference (BouncingBall: `oracle`, the exact optimum knowing "
-        "every future target).",
+        "every future target; AircraftGusty: `draft-compensating`, the autopilot with draft feed-forward; "
+        "Suspension: `continuous-skyhook`, the clipped continuous skyhook).",
         "",
         "| " + " | ".join(TABLE_COLUMNS) + " |",
         "|" + "---|" * len(TABLE_COLUMNS),

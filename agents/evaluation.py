@@ -3,7 +3,7 @@
 Every agent has SB3's ``predict(obs, state, episode_start, deterministic)`` and runs the same loop on the same
 single env: episode ``k`` of an evaluation starts from ``reset(seed=seed + k)``. Per env and agent it reports
 the mean and std of the return, the success rate (``info["is_success"]`` at the episode's last step), the
-normalized score ``(R - R_random) / (R_analytic - R_random)`` (1 matches the chapter's controller), the score
+normalized score ``(R - R_random) / (R_analytic - R_random)`` (1 matches the analytic controller), the score
 against each stronger reference of the env (:data:`REFERENCE_AGENTS`) and the task's own control metrics
 (:data:`TASK_METRICS`), averaged over episodes.
 """
@@ -23,7 +23,12 @@ from gymnasium import spaces
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
-from agents.analytic import AircraftDraftCompensatingAutopilot, BouncingBallOracle, controller_for
+from agents.analytic import (
+    AircraftDraftCompensatingAutopilot,
+    BouncingBallOracle,
+    SuspensionContinuousSkyhook,
+    controller_for,
+)
 from agents.config import TrainConfig, load_resolved
 from agents.statistics import ScoreSummary, summarize
 from agents.training import CONFIG_FILE, MODEL_FILE, normalize_path, seed_runs
@@ -124,6 +129,7 @@ REFERENCE_AGENTS: dict[str, dict[str, AgentFactory]] = {
     "vegym/AircraftGusty-v0": {
         "draft-compensating": lambda env: AircraftDraftCompensatingAutopilot(env.unwrapped.params)
     },
+    "vegym/Suspension-v0": {"continuous-skyhook": lambda env: SuspensionContinuousSkyhook(env.unwrapped.params)},
 }
 """Stronger references than the analytic controller, per env (name -> factory); evaluated beside it."""
 

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import vegym  # noqa: F401
-from agents.analytic import SuspensionSkyhook, controller_for
+from agents.analytic import SuspensionContinuousSkyhook, SuspensionSkyhook, controller_for
 from vegym.envs.suspension import SuspensionParams
 from vegym.physics import suspension
 
@@ -17,15 +17,19 @@ EPISODES = 50
 
 def first_episodes(policy: str | float, n: int = EPISODES, seed: int = 0, **params: float) -> dict[str, np.ndarray]:
     """Return, final success and length of the first episode of n sub-envs (seeds seed .. seed + n - 1) under the
-    skyhook (``"skyhook"``), uniform random actions (``"random"``) or a constant action (a passive damper)."""
+    skyhook (``"skyhook"``), the continuous skyhook (``"continuous"``), uniform random actions (``"random"``) or a
+    constant action (a passive damper)."""
     env = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", **params)
     controller, rng = controller_for(env), np.random.default_rng(seed)
+    continuous = SuspensionContinuousSkyhook(env.unwrapped.params)
     obs, _ = env.reset(seed=seed)
     done, success = np.zeros(n, bool), np.zeros(n, bool)
     returns, lengths = np.zeros(n), np.zeros(n, dtype=np.int64)
     while not done.all():
         if policy == "skyhook":
             action = controller.predict(obs)[0]
+        elif policy == "continuous":
+            action = continuous.predict(obs)[0]
         elif policy == "random":
             action = rng.uniform(-1.0, 1.0, (n, 1)).astype(np.float32)
         else:
@@ -57,6 +61,33 @@ def test_skyhook_beats_random_and_every_passive_setting_clearly() -> None:
     assert np.all(sky["length"] == 1000)  # never hits a bump stop
     assert np.mean(passive[-1.0]["length"] < 1000) > 0.2  # the softest damper often does
     assert isinstance(controller_for(gym.make(ENV_ID)), SuspensionSkyhook)
+
+
+def test_continuous_skyhook_reference_rides_more_comfortably_than_the_on_off_one() -> None:
+    on_off, continuous = first_episodes("skyhook"), first_episodes("continuous")
+    print(
+        f"\nSuspension-v0 over {EPISODES} episodes: on-off skyhook return {on_off['return'].mean():.3f}, success "
+        f"{on_off['success'].mean():.0%}; continuous skyhook {continuous['return'].mean():.3f}, "
+        f"{continuous['success'].mean():.0%}"
+    )
+    assert 0.9 * on_off["return"].mean() < continuous["return"].mean() < 0.0  # returns are negative: 10% less cost
+    assert continuous["success"].mean() >= on_off["success"].mean() and np.all(continuous["length"] == 1000)
+    assert np.mean(continuous["return"] > on_off["return"]) >= 0.8
+
+
+def test_continuous_skyhook_from_the_observation_is_its_law_on_the_true_state() -> None:
+    env = gym.make_vec(ENV_ID, num_envs=64, vectorization_mode="vector_entry_point")
+    p: SuspensionParams = env.unwrapped.params
+    controller = SuspensionContinuousSkyhook(p)
+    obs, _ = env.reset(seed=4)
+    for _ in range(200):
+        state = env.unwrapped.state
+        velocity, relative = state["velocity"], state["velocity"] - state["base_velocity"]
+        assert np.abs(obs[:, 1:3]).max() < 1.0  # unclipped
+        damping = suspension.continuous_skyhook_damping(velocity, relative, p.damping_max, p.damping_min, p.damping_max)
+        action = controller.predict(obs)[0]
+        obs, _, _, _, info = env.step(action)
+        np.testing.assert_allclose(info["damping"], damping, rtol=1e-5, atol=1e-3 * p.damping_max)
 
 
 def test_controller_from_the_observation_is_the_skyhook_law_on_the_true_state() -> None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 import pytest
@@ -169,32 +170,68 @@ def test_skyhook_is_stiff_exactly_when_the_damper_force_opposes_the_body_velocit
     assert np.all((force * body < 0) == (c == 20.0))
 
 
+ROAD_AMPLITUDE = 0.05
+"""Amplitude of the section 8 check's sinusoidal road (m)."""
+
+
+def rms_on_sinusoidal_road(omega: np.ndarray, damping: Callable[[np.ndarray, np.ndarray], np.ndarray]) -> np.ndarray:
+    """RMS body acceleration (m/s^2) of CHECK over a road ``ROAD_AMPLITUDE sin(omega t)`` (one row per omega,
+    rad/s), in the last 5 s of 20 s at dt = 1e-3 s, with the damper coefficient ``damping(v, v - v_b)`` (N s/m)."""
+    dt, steps, window = 1e-3, 20_000, 5_000
+    y, v = np.full(len(omega), CHECK.static_length), np.zeros(len(omega))
+    squares = np.zeros(len(omega))
+    for i in range(steps):
+        t = i * dt
+        base, base_velocity = ROAD_AMPLITUDE * np.sin(omega * t), ROAD_AMPLITUDE * omega * np.cos(omega * t)
+        y, v, a = suspension.step(y, v, base, base_velocity, damping(v, v - base_velocity), dt, CHECK)
+        if i >= steps - window:
+            squares += a * a
+    return np.sqrt(squares / window)
+
+
 def test_skyhook_rides_better_than_both_passive_dampers_of_its_range_as_in_the_section_8_table() -> None:
-    """RMS body acceleration under a 5 cm sinusoidal road at resonance and at 2.5 omega_n, in the last 5 s of 20 s:
-    passive c = 4 and c = 20 (N s/m) against the closed form, and on-off skyhook in [0.5, 20]. At 2.5 omega_n the
-    skyhook's switching makes it depend on the step (2.12 at 1e-3 s, 2.21 at 2e-3 s): it is about the soft
-    damper there."""
-    dt, amplitude = 1e-3, 0.05
+    """RMS body acceleration under a 5 cm sinusoidal road at resonance and at 2.5 omega_n: passive c = 4 and
+    c = 20 (N s/m) against the closed form, and on-off skyhook in [0.5, 20]. At 2.5 omega_n the skyhook's switching
+    makes it depend on the step (2.12 at 1e-3 s, 2.21 at 2e-3 s): it is about the soft damper there."""
     omega = np.repeat(np.array([1.0, 2.5]) * CHECK.natural_frequency, 3)
     passive = np.array([4.0, 20.0, 0.0] * 2)
     skyhook = passive == 0.0
-    y, v = np.full(6, CHECK.static_length), np.zeros(6)
-    steps, window = 20_000, 5_000
-    squares = np.zeros(6)
-    for i in range(steps):
-        t = i * dt
-        base, base_velocity = amplitude * np.sin(omega * t), amplitude * omega * np.cos(omega * t)
-        c = np.where(skyhook, suspension.skyhook_damping(v, v - base_velocity, 0.5, 20.0), passive)
-        y, v, a = suspension.step(y, v, base, base_velocity, c, dt, CHECK)
-        if i >= steps - window:
-            squares += a * a
-    rms = np.sqrt(squares / window)
-    closed = omega**2 * suspension.transmissibility(omega, passive, CHECK) * amplitude / math.sqrt(2.0)
+    rms = rms_on_sinusoidal_road(
+        omega, lambda v, relative: np.where(skyhook, suspension.skyhook_damping(v, relative, 0.5, 20.0), passive)
+    )
+    closed = omega**2 * suspension.transmissibility(omega, passive, CHECK) * ROAD_AMPLITUDE / math.sqrt(2.0)
     np.testing.assert_allclose(rms[~skyhook], closed[~skyhook], rtol=0.01)
     rms = rms.reshape(2, 3)
     np.testing.assert_allclose(rms, [[4.70, 1.68, 1.52], [2.12, 5.50, 2.10]], atol=0.03)
     assert rms[0, 2] < 0.92 * rms[0, 1] < rms[0, 0]
     assert rms[1, 2] < 1.01 * rms[1, 0] < 0.5 * rms[1, 1]
+
+
+def test_continuous_skyhook_gives_the_sky_force_where_the_damper_range_reaches_it() -> None:
+    body = np.array([1.0, 1.0, 1.0, -1.0, 1.0, -1.0, 0.0, 0.5])
+    relative = np.array([0.5, 2.0, 100.0, -4.0, -0.5, 2.0, 1.0, 0.0])
+    c = suspension.continuous_skyhook_damping(body, relative, 20.0, 0.5, 20.0)
+    np.testing.assert_array_equal(c, [20.0, 10.0, 0.5, 5.0, 0.5, 0.5, 0.5, 0.5])
+    reached = (c > 0.5) & (c < 20.0)
+    np.testing.assert_allclose(-c[reached] * relative[reached], -20.0 * body[reached], rtol=1e-15)
+    on_off = suspension.skyhook_damping(body, relative, 0.5, 20.0)
+    np.testing.assert_array_equal(c == 20.0, (on_off == 20.0) & (np.abs(relative) <= np.abs(body)))
+
+
+def test_continuous_skyhook_rides_as_the_on_off_one_at_resonance_and_better_above_it() -> None:
+    """Section 8's road at resonance and 2.5 omega_n, range [0.5, 20] N s/m and c_sky = c_max: the continuous law
+    follows the sky force instead of switching, which the on-off law's 2.12 m/s^2 above resonance pays for."""
+    omega = np.repeat(np.array([1.0, 2.5]) * CHECK.natural_frequency, 2)
+    continuous = np.array([False, True] * 2)
+
+    def damping(v: np.ndarray, relative: np.ndarray) -> np.ndarray:
+        on_off = suspension.skyhook_damping(v, relative, 0.5, 20.0)
+        return np.where(continuous, suspension.continuous_skyhook_damping(v, relative, 20.0, 0.5, 20.0), on_off)
+
+    rms = rms_on_sinusoidal_road(omega, damping).reshape(2, 2)
+    print(f"\nRMS body acceleration (m/s^2), on-off vs continuous skyhook: resonance {rms[0]}, 2.5 omega_n {rms[1]}")
+    assert rms[0, 1] == pytest.approx(rms[0, 0], rel=0.02)
+    assert rms[1, 1] < 0.75 * rms[1, 0]
 
 
 def test_terrain_is_the_sum_of_its_sinusoids_row_by_row() -> None:

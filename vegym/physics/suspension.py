@@ -210,3 +210,18 @@ def skyhook_damping(body_velocity: np.ndarray, relative_velocity: np.ndarray, c_
     body's absolute velocity ``v``, as a damper to a fixed "sky" would, and soft otherwise.
     """
     return np.where(body_velocity * relative_velocity > 0.0, c_max, c_min)
+
+
+def continuous_skyhook_damping(
+    body_velocity: np.ndarray, relative_velocity: np.ndarray, c_sky: float, c_min: float, c_max: float
+) -> np.ndarray:
+    """Semi-active continuous (clipped) skyhook: where ``v (v - v_b) > 0``, the ``c`` whose damper force
+    ``-c (v - v_b)`` equals the sky damper's ``-c_sky v``, clipped to ``[c_min, c_max]``; elsewhere ``c_min`` (N s/m).
+
+    Where the on-off law (:func:`skyhook_damping`) switches between the extremes, this one follows the sky force
+    wherever the damper's range reaches it; with ``c_sky = c_max`` it is stiff exactly where the on-off law is
+    stiff and the relative velocity is at most the body's.
+    """
+    opposing = body_velocity * relative_velocity > 0.0
+    ratio = np.divide(c_sky * body_velocity, relative_velocity, out=np.zeros(np.shape(opposing)), where=opposing)
+    return np.where(opposing, np.clip(ratio, c_min, c_max), c_min)
