@@ -15,10 +15,11 @@ ENV_ID = "vegym/Thread-v0"
 EPISODES = 50
 
 
-def first_episodes(policy: str, n: int = EPISODES, seed: int = 0) -> dict[str, np.ndarray]:
-    """Return, success and length (steps) of the first episode of n sub-envs under feedback, random or no force."""
+def first_episodes(policy: str, n: int = EPISODES, seed: int = 0, gain: float | None = None) -> dict[str, np.ndarray]:
+    """Return, success and length (steps) of the first episode of n sub-envs under feedback (of the controller's
+    default gain, or ``gain`` in N s/m), random or no force."""
     env = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point")
-    controller, rng = controller_for(env), np.random.default_rng(seed)
+    controller, rng = ThreadVelocityFeedback(env.unwrapped.params, gain), np.random.default_rng(seed)
     obs, _ = env.reset(seed=seed)
     done, success = np.zeros(n, bool), np.zeros(n, bool)
     returns, lengths = np.zeros(n), np.zeros(n, dtype=np.int64)
@@ -50,6 +51,24 @@ def test_velocity_feedback_settles_every_pluck_within_a_second_and_beats_random_
     assert not chance["success"].any() and not passive["success"].any()
     assert feedback["return"].min() > 10.0 * passive["return"].max() > 10.0 * chance["return"].max()
     assert isinstance(controller_for(gym.make(ENV_ID)), ThreadVelocityFeedback)
+
+
+def test_default_gain_is_half_of_one_at_which_the_held_feedback_stops_settling() -> None:
+    """The default gain, capped at c_fb dt / m = 1/4: twice it still settles every pluck, 2.4 times it none, so the
+    sampled-data limit lies between c_fb dt / m = 0.5 and 0.6 at the defaults (not at 1)."""
+    p = ThreadEnvParams()
+    default = ThreadVelocityFeedback(p).gain
+    assert default * p.dt / p.node_mass == pytest.approx(0.25)
+    stable, unstable = (
+        first_episodes("feedback", 20, gain=2.0 * default),
+        first_episodes("feedback", 20, gain=2.4 * default),
+    )
+    print(
+        f"\nThread-v0 over 20 episodes: gain {2 * default:.2f} N s/m return {stable['return'].mean():.3f}, success "
+        f"{stable['success'].mean():.0%}; gain {2.4 * default:.2f} N s/m {unstable['return'].mean():.3f}, "
+        f"{unstable['success'].mean():.0%}"
+    )
+    assert stable["success"].all() and not unstable["success"].any()
 
 
 def test_controller_from_the_observation_is_saturated_collocated_velocity_feedback() -> None:
