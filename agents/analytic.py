@@ -72,6 +72,26 @@ class BouncingBallMyopic(AnalyticController):
         return (2.0 * np.clip(e, 0.0, 1.0) - 1.0)[:, None]
 
 
+class BouncingBallLookahead(AnalyticController):
+    """Receding-horizon planning over the observed targets: a stronger reference on BouncingBall-v0.
+
+    At each impact it plans the apexes of the shown targets (the current one and the lookahead) as the oracle
+    plans the episode's (:func:`~vegym.envs.bouncing_ball.optimal_apexes`, from the highest apex still reachable)
+    and aims at the plan's first apex with the restitution law. It acts from the observation alone; it sees
+    neither the targets past the lookahead nor where the episode ends.
+    """
+
+    def __init__(self, params: BouncingBallParams) -> None:
+        self.params = params
+
+    def act(self, obs: np.ndarray) -> np.ndarray:
+        speed, reachable, targets = obs[:, 0], obs[:, 1], obs[:, 2:].astype(np.float64)
+        first = np.array([optimal_apexes(t, float(r), 0.0)[0] for t, r in zip(targets, reachable, strict=True)])
+        with np.errstate(divide="ignore", invalid="ignore"):
+            e = np.where(speed > 0, np.sqrt(first) / speed, 0.0)
+        return (2.0 * np.clip(e, 0.0, 1.0) - 1.0)[:, None]
+
+
 class BouncingBallOracle:
     """The exact optimum of BouncingBall: knows the whole target sequence of the episode (privileged).
 

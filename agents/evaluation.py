@@ -25,6 +25,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
 from agents.analytic import (
     AircraftDraftCompensatingAutopilot,
+    BouncingBallLookahead,
     BouncingBallOracle,
     SuspensionContinuousSkyhook,
     controller_for,
@@ -125,7 +126,10 @@ def load_seeded(agent_dir: Path) -> tuple[dict[int, AgentFactory], TrainConfig]:
 
 
 REFERENCE_AGENTS: dict[str, dict[str, AgentFactory]] = {
-    "vegym/BouncingBall-v0": {"oracle": BouncingBallOracle},
+    "vegym/BouncingBall-v0": {
+        "lookahead": lambda env: BouncingBallLookahead(env.unwrapped.params),
+        "oracle": BouncingBallOracle,
+    },
     "vegym/AircraftGusty-v0": {
         "draft-compensating": lambda env: AircraftDraftCompensatingAutopilot(env.unwrapped.params)
     },

@@ -501,8 +501,10 @@ class BouncingBallEnv(VegymEnv[BouncingBallParams]):
     ``gymnasium.make("vegym/BouncingBall-v0", render_mode=None, **params)`` with the fields of
     :class:`BouncingBallParams`. ``info`` per step: ``impact_speed``, ``restitution``, ``apex_height``,
     ``target_height``, ``radius``, ``gravity`` (SI), ``reward_terms``, ``is_success``.
-    Reference controllers: the myopic ``e = sqrt(2 g (h* - r)) / v`` and the exact optimum
-    :func:`optimal_apexes` (in ``agents.analytic``).
+    Reference controllers (in ``agents.analytic``): the myopic ``e = sqrt(2 g (h* - r)) / v`` (the baseline),
+    planning with :func:`optimal_apexes` over the shown targets (from the observation alone) and the exact
+    optimum, which knows the episode's every target. Over seeds 0-199 their mean returns are -0.59, -0.43 and
+    -0.34 (``tests/test_bouncing_ball.py``).
 
     ## Version History
     * v0: initial version.
