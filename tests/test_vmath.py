@@ -94,3 +94,18 @@ def test_acos_is_within_one_ulp_of_libm_and_exact_at_the_ends() -> None:
     assert _ulps(angle, reference).max() <= 1
     ends_angle, _ = _acos_each(np.array([1.0, -1.0, 1.5]))
     assert ends_angle[0] == 0.0 and ends_angle[1] == np.pi and np.isnan(ends_angle[2])
+
+
+@pytest.mark.parametrize(("damping_rate", "omega_squared"), [(0.0, 9.81), (0.05, 9.81), (3.0, 1.0), (1e6, 1e-3)])
+def test_stable_step_is_the_root_of_the_semi_implicit_euler_bound(damping_rate: float, omega_squared: float) -> None:
+    h = vmath.stable_step(damping_rate, omega_squared)
+    assert omega_squared * h * h + 2.0 * damping_rate * h == pytest.approx(4.0, rel=1e-12)
+
+
+def test_stable_step_neither_cancels_nor_fails_at_extreme_rates() -> None:
+    """Strong damping: h -> 2 / damping_rate - omega^2 / damping_rate^3 (the old form's subtraction gave 0 at 1e9);
+    overflowing rates give 0 (every step unstable), no restoring force and no damping any step (inf)."""
+    assert vmath.stable_step(1e9, 9.81) == pytest.approx(2e-9 - 9.81e-27, rel=1e-15)
+    assert vmath.stable_step(1e200, 9.81) == 0.0 and vmath.stable_step(0.0, math.inf) == 0.0
+    assert vmath.stable_step(0.0, 0.0) == math.inf
+    assert vmath.stable_step(0.0, 4.0) == pytest.approx(1.0, rel=1e-15)

@@ -55,8 +55,7 @@ class PendulumParams(Params):
     def max_stable_step(self) -> float:
         """Largest semi-implicit Euler step (s) about the hanging position: the root of
         ``(g/L) h^2 + 2 (b / (m L^2)) h = 4``."""
-        beta, w2 = self.damping / self.inertia, self.gravity / self.length
-        return (math.sqrt(beta * beta + 4.0 * w2) - beta) / w2
+        return vmath.stable_step(self.damping / self.inertia, self.gravity / self.length)
 
 
 @njit(cache=True)

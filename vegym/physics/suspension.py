@@ -64,8 +64,7 @@ class SpringParams(Params):
 
     def max_stable_step(self, damping: float) -> float:
         """Largest semi-implicit Euler step (s) for the damper ``c``: the root of ``(omega_n h)^2 + 2 (c/m) h = 4``."""
-        beta, w2 = damping / self.mass, self.stiffness / self.mass
-        return (math.sqrt(beta * beta + 4.0 * w2) - beta) / w2
+        return vmath.stable_step(damping / self.mass, self.stiffness / self.mass)
 
 
 @njit(cache=True)

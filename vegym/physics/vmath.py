@@ -1,6 +1,6 @@
-"""Sine, cosine, arccosine and angle wrapping as branch-free numba code, so that a kernel's loop over a batch
-compiles to SIMD instructions (libm's ``sin``/``cos``/``acos``/``fmod`` are calls that keep a loop scalar: numba
-here has no vector math library).
+"""Math shared by the models: sine, cosine, arccosine and angle wrapping as branch-free numba code, so that a
+kernel's loop over a batch compiles to SIMD instructions (libm's ``sin``/``cos``/``acos``/``fmod`` are calls that
+keep a loop scalar: numba here has no vector math library).
 
 :func:`sincos` is fdlibm's method (the kernels of musl's ``__sin``/``__cos`` after a two-round Cody-Waite
 reduction by pi/2): within 1 ulp of libm's ``sin``/``cos`` (they differ in about 3% of arguments) for
@@ -8,6 +8,7 @@ reduction by pi/2): within 1 ulp of libm's ``sin``/``cos`` (they differ in about
 angles of at most a few turns. :func:`acos` is fdlibm's rational approximation, also within 1 ulp of libm.
 Results are a pure function of the argument, the same in a batch and alone. The kernels inline these functions
 and numba's on-disk cache does not notice a change here: delete the ``__pycache__`` folders after editing.
+:func:`stable_step` is the step bound of semi-implicit Euler on a damped oscillator.
 """
 
 from __future__ import annotations
@@ -93,3 +94,12 @@ def acos(x: float) -> float:
     angle = central if small else (negative if x < 0.0 else positive)
     angle = 0.0 if x == 1.0 else angle
     return 2.0 * _PIO2_HI if x == -1.0 else angle
+
+
+def stable_step(damping_rate: float, omega_squared: float) -> float:
+    """Largest step h (s) at which semi-implicit Euler keeps ``x'' = -omega^2 x - damping_rate x'`` from growing:
+    the positive root of ``omega^2 h^2 + 2 damping_rate h = 4``, written ``4 / (damping_rate + sqrt(damping_rate^2 +
+    4 omega^2))`` (no cancellation for strong damping; 0 if either rate overflows, inf without either)."""
+    root = math.sqrt(damping_rate * damping_rate + 4.0 * omega_squared) + damping_rate
+    return 4.0 / root if root > 0.0 else math.inf
+
