@@ -102,4 +102,3 @@ def stable_step(damping_rate: float, omega_squared: float) -> float:
     4 omega^2))`` (no cancellation for strong damping; 0 if either rate overflows, inf without either)."""
     root = math.sqrt(damping_rate * damping_rate + 4.0 * omega_squared) + damping_rate
     return 4.0 / root if root > 0.0 else math.inf
-
