@@ -35,6 +35,7 @@ class VectorEnvAdapter(VecEnv):
             raise ValueError(f"autoreset_mode={mode!r}: VectorEnvAdapter needs AutoresetMode.NEXT_STEP")
         self.venv = venv
         super().__init__(venv.num_envs, venv.single_observation_space, venv.single_action_space)
+        self.metadata = venv.metadata  # render_fps among them (VecVideoRecorder's frame rate), as DummyVecEnv's
         self._actions: np.ndarray | None = None
 
     def reset(self) -> VecEnvObs:

@@ -207,6 +207,7 @@ def assert_identical(a: Any, b: Any, where: str) -> None:
 def run_both(env_id: str, adapted: Any, n: int, limit: int, steps: int = 60) -> int:
     """Step the adapter and DummyVecEnv with the same actions; return the count of steps with mixed resets."""
     dummy = DummyVecEnv([lambda: gym.make(env_id, max_episode_steps=limit) for _ in range(n)])
+    assert adapted.metadata["render_fps"] == dummy.metadata["render_fps"]  # VecVideoRecorder's frame rate
     adapted.seed(5)
     dummy.seed(5)
     assert_identical(adapted.reset(), dummy.reset(), "reset obs")
