@@ -274,7 +274,9 @@ class GearTrainProportional(AnalyticController):
         p = self.params
         error = np.arctan2(obs[:, 0], obs[:, 1])
         ratio = obs[:, 3] * p.ratio_max
-        return (np.clip(self.gain * error / ratio, -p.max_speed, p.max_speed) / p.max_speed)[:, None]
+        # 0 for a ratio of 0, which the observation space holds and no episode shows
+        demand = np.divide(self.gain * error, ratio, out=np.zeros_like(error), where=ratio != 0.0)
+        return (np.clip(demand, -p.max_speed, p.max_speed) / p.max_speed)[:, None]
 
 
 class SuspensionSkyhook(AnalyticController):

@@ -142,6 +142,20 @@ def test_observations_stay_finite_and_inside_the_space(env_id: str) -> None:
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)
+def test_the_analytic_controller_acts_within_the_action_space_on_any_observation_of_its_space(env_id: str) -> None:
+    """Episodes never show some observations (GearTrain's ratio 0, say), but a controller's predict still returns
+    actions in the space for them: the space's corners, zeros and samples."""
+    env = gym.make(env_id)
+    space = env.observation_space
+    space.seed(0)
+    corners = [space.low, space.high, np.zeros_like(space.low)]
+    batch = np.stack([*corners, *(space.sample() for _ in range(256))]).astype(np.float32)
+    actions, _ = controller_for(env).predict(batch)
+    assert actions.shape == (len(batch), *env.action_space.shape) and actions.dtype == np.float32
+    assert np.all(np.isfinite(actions)) and np.all(np.abs(actions) <= 1.0)
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
 def test_vector_env_matches_single_envs_including_mixed_resets(env_id: str) -> None:
     n, steps, seed = 4, 80, 11
     limit = min(gym.spec(env_id).max_episode_steps, 25)
