@@ -497,6 +497,15 @@ def test_actions_of_any_numeric_dtype_are_taken_and_other_shapes_raise() -> None
     for bad in (np.zeros(3), np.zeros((2, 1)), np.array(["a", "b"])):
         with pytest.raises(ValueError, match="action"):
             env.step(bad)
+    with pytest.raises(
+        ValueError, match=r"action has shape \(3,\); expected \(2,\)$"
+    ):  # the env's shape, not a batch's
+        env.step(np.zeros(3))
+    one_number = gym.make("vegym/BouncingBall-v0")
+    one_number.reset(seed=0)
+    for bad in (None, 0.5 + 3j, np.array([0.5 + 0j])):  # not NaN, and no imaginary part dropped
+        with pytest.raises(ValueError, match="is not an array of real numbers"):
+            one_number.step(bad)
     vec = gym.make_vec("vegym/SteerableWheel-v0", num_envs=3, vectorization_mode="vector_entry_point")
     vec.reset(seed=0)
     with pytest.raises(ValueError, match="shape"):

@@ -252,12 +252,15 @@ def check_actions(action: Any, target: np.ndarray) -> np.ndarray:
     clipped)."""
     a = action if isinstance(action, np.ndarray) else np.asarray(action)
     if not (a.shape in action_shapes(*target.shape) or a.size == target.size == 1):
-        raise ValueError(f"action has shape {a.shape}; expected {target.shape}")
+        expected = target.shape[1:] if target.shape[0] == 1 else target.shape  # a single env's own shape
+        raise ValueError(f"action has shape {a.shape}; expected {expected}")
+    if action is None or a.dtype.kind == "c":  # numpy would take None for NaN and drop imaginary parts
+        raise ValueError(f"action {action!r} is not an array of real numbers")
     if a.dtype.kind not in "fiu" or not a.dtype.isnative or not 4 <= a.dtype.itemsize <= 8:
         try:  # bool, float16, long double, object, big-endian, ...: converted by numpy first
             a = np.asarray(a, dtype=np.float64)
         except (TypeError, ValueError) as error:
-            raise ValueError(f"action {action!r} is not an array of numbers: {error}") from None
+            raise ValueError(f"action {action!r} is not an array of real numbers: {error}") from None
     if not a.flags.c_contiguous:
         a = np.ascontiguousarray(a)
     status = _load_actions(a, target, ACTION_TOLERANCE)
