@@ -226,7 +226,12 @@ def test_info_is_the_step_just_taken_in_si_units() -> None:
 
 def test_extreme_actions_keep_the_aircraft_in_its_envelope_and_observations_in_bounds() -> None:
     env = gym.make_vec(
-        GUSTY_ID, num_envs=8, vectorization_mode="vector_entry_point", ceiling_altitude=2000.0, max_episode_steps=600
+        GUSTY_ID,
+        num_envs=8,
+        vectorization_mode="vector_entry_point",
+        ceiling_altitude=2000.0,
+        episode_steps=600,
+        max_episode_steps=600,
     )
     p = env.unwrapped.params
     obs, _ = env.reset(seed=0)

@@ -46,7 +46,7 @@ def test_info_describes_the_bounce_and_the_apex_is_exact() -> None:
 
 
 def test_elastic_bounces_keep_the_apex_at_the_drop_height() -> None:
-    env = gym.make(ENV_ID, max_episode_steps=10_000)
+    env = gym.make(ENV_ID, episode_bounces=10_000, max_episode_steps=10_000)
     env.reset(seed=0)
     for _ in range(10_000):
         _, _, terminated, _, info = env.step(np.array([1.0], dtype=np.float32))
@@ -81,7 +81,9 @@ def test_every_ball_at_rest_in_a_vector_env_is_charged_the_targets_it_skips(
     block); every episode is charged the sum of its skipped targets, as numpy sums them."""
     n = 64
     params = {"lookahead": lookahead, "episode_bounces": episode_bounces}
-    vec = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", **params)
+    vec = gym.make_vec(
+        ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", max_episode_steps=episode_bounces, **params
+    )
     vec.reset(seed=3)
     task = vec.unwrapped.task
     targets = task.targets(vec.unwrapped.state["key"], episode_bounces)
@@ -127,7 +129,7 @@ def test_coming_to_rest_early_never_pays() -> None:
 
 
 def test_myopic_controller_reaches_every_reachable_target_to_1e_6() -> None:
-    env = gym.make(ENV_ID, max_episode_steps=20)
+    env = gym.make(ENV_ID, episode_bounces=20, max_episode_steps=20)
     controller = controller_for(env)
     reached = 0
     for seed in range(100):

@@ -64,6 +64,52 @@ def test_passes_gymnasium_and_sb3_checkers_without_warnings(env_id: str) -> None
     assert [str(w.message) for w in caught] == []
 
 
+PLANNED_LENGTHS = {
+    "vegym/BouncingBall-v0": "episode_bounces",
+    "vegym/Aircraft-v0": "episode_steps",
+    "vegym/AircraftGusty-v0": "episode_steps",
+    "vegym/PendulumPump-v0": "episode_steps",
+    "vegym/Suspension-v0": "episode_steps",
+}
+"""The envs whose task plans for an episode length (a demand schedule's end, a charge for the steps left)."""
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_a_time_limit_past_the_planned_length_warns_and_one_set_with_it_does_not(env_id: str) -> None:
+    """Registered, the time limit is the planned length; a longer one (max_episode_steps alone) warns once, from
+    the vector env when it is made and from the single env when an episode has run past the plan."""
+    name = PLANNED_LENGTHS.get(env_id)
+    assert name == type(gym.make(env_id).unwrapped.task).planned_length
+    if name is None:
+        return
+    planned = getattr(gym.make(env_id).unwrapped.params, name)
+    assert gym.spec(env_id).max_episode_steps == planned
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point")
+        gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point", max_episode_steps=planned - 1)
+        shorter = {name: planned // 2, "max_episode_steps": planned // 2}
+        gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point", **shorter)
+    assert caught == []
+    with pytest.warns(UserWarning, match=rf"max_episode_steps={planned + 1}, but the task plans episodes of {name}="):
+        gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point", max_episode_steps=planned + 1)
+    short, longer = planned // 2, planned // 2 + 2
+    env = gym.make(env_id, max_episode_steps=longer, **{name: short})  # the last two steps run past the plan
+    action = np.full(env.action_space.shape, 0.8, np.float32)  # BouncingBall: e = 0.9 keeps the ball bouncing
+    env.reset(seed=0)
+    for _ in range(longer):
+        env.step(action)
+    ran = rf"an episode ran {longer} steps, but the task plans episodes of {name}={short} steps"
+    with pytest.warns(UserWarning, match=ran):
+        env.reset()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        for _ in range(longer):
+            env.step(action)
+        env.reset()
+    assert caught == []  # once per env
+
+
 @pytest.mark.parametrize("env_id", ENV_IDS)
 def test_same_seed_gives_identical_rollouts(env_id: str) -> None:
     actions = random_actions(env_id, 60, seed=1)

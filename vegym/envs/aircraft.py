@@ -345,6 +345,7 @@ class AircraftTask(Task[AircraftEnvParams]):
     """Batched logic of Aircraft-v0 (see :class:`AircraftEnv`)."""
 
     params_cls = AircraftEnvParams
+    planned_length = "episode_steps"
     renderer = "vegym.render.aircraft:AircraftRenderer"
 
     def __init__(self, params: AircraftEnvParams) -> None:
@@ -506,6 +507,8 @@ class AircraftEnv(VegymEnv[AircraftEnvParams]):
     made at this step), ``errors`` (altitude, speed, heading: demand minus value, heading wrapped),
     ``reward_terms``, ``is_success``. Reference controller: the chapter's autopilot, three decoupled
     saturated P loops with gains 0.2, 0.5, 0.5 /s (``agents.analytic``).
+    Another episode length takes both ``episode_steps=N`` and ``max_episode_steps=N``: the task plans for
+    ``episode_steps``, and ``max_episode_steps`` alone only moves the time limit (a longer one warns).
 
     ## Version History
     * v0: initial version.

@@ -65,11 +65,29 @@ class Task(abc.ABC, Generic[P]):
     write them, every element of a row they start. The vector env's infos return read-only views of them, not
     copies, and its state gets new ones before episodes start."""
 
+    planned_length: ClassVar[str | None] = None
+    """The parameter holding the episode length the task plans for (a demand schedule's end, a charge for the
+    steps left), which ``max_episode_steps`` must equal; None if the task plans for no length."""
+
     observation_space: spaces.Box
     action_space: spaces.Box
 
     def __init__(self, params: P) -> None:
         self.params = params
+
+    @property
+    def planned_steps(self) -> int | None:
+        """The episode length (steps) the task plans for (:attr:`planned_length`), or None."""
+        return None if self.planned_length is None else getattr(self.params, self.planned_length)
+
+    def warn_unplanned_length(self, what: str) -> None:
+        """Warn that episodes run longer than the planned length (``what`` says how): the task still plans for it,
+        and only its parameter changes it. (A shorter time limit only cuts episodes, as truncation does.)"""
+        name = self.planned_length
+        gym.logger.warn(
+            f"{what}, but the task plans episodes of {name}={self.planned_steps} steps (its demand schedule or its "
+            f"charge for the steps left); to change the episode length pass both {name}=N and max_episode_steps=N"
+        )
 
     @property
     @abc.abstractmethod
@@ -399,6 +417,7 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
         self.state: State | None = None
         self._bound_state: State | None = None
         self._load_action = ActionLoader(1, self.action_space.shape)
+        self._unwarned_plan = self.task.planned_steps  # None once an episode past it was warned of
         self._out = self.task.outputs(1)
         self._renderer: Any = None
         self._window: Any = None
@@ -435,6 +454,9 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
         else:
             if state is not self._bound_state:
                 self._bind(state)
+            if self._unwarned_plan is not None and self._read_step() > self._unwarned_plan:
+                self.task.warn_unplanned_length(f"{type(self).__name__}: an episode ran {self._read_step()} steps")
+                self._unwarned_plan = None
             if seed is None:
                 state["step"][0] = 0
                 self._restart()
@@ -598,6 +620,9 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
                 "sub-envs' frames; a window shows a single env: gymnasium.make(id, render_mode='human'))"
             )
         self.task = self.task_cls(self.task_cls.params_cls(**params))
+        planned = self.task.planned_steps
+        if planned is not None and (max_episode_steps is None or max_episode_steps > planned):
+            self.task.warn_unplanned_length(f"{type(self).__name__}: max_episode_steps={max_episode_steps}")
         self.params: P = self.task.params  # type: ignore[assignment]
         self.num_envs = num_envs
         self.max_episode_steps = max_episode_steps

@@ -346,6 +346,7 @@ class BouncingBallTask(Task[BouncingBallParams]):
     """Batched logic of BouncingBall-v0 (see :class:`BouncingBallEnv`)."""
 
     params_cls = BouncingBallParams
+    planned_length = "episode_bounces"
     renderer = "vegym.render.bouncing_ball:BouncingBallRenderer"
 
     def __init__(self, params: BouncingBallParams) -> None:
@@ -505,6 +506,8 @@ class BouncingBallEnv(VegymEnv[BouncingBallParams]):
     planning with :func:`optimal_apexes` over the shown targets (from the observation alone) and the exact
     optimum, which knows the episode's every target. Over seeds 0-199 their mean returns are -0.59, -0.43 and
     -0.34 (``tests/test_bouncing_ball.py``).
+    Another episode length takes both ``episode_bounces=N`` and ``max_episode_steps=N``: the task plans for
+    ``episode_bounces``, and ``max_episode_steps`` alone only moves the time limit (a longer one warns).
 
     ## Version History
     * v0: initial version.

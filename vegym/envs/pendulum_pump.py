@@ -228,6 +228,7 @@ class PendulumPumpTask(Task[PendulumPumpParams]):
     """Batched logic of PendulumPump-v0 (see :class:`PendulumPumpEnv`)."""
 
     params_cls = PendulumPumpParams
+    planned_length = "episode_steps"
     renderer = "vegym.render.pendulum_pump:PendulumPumpRenderer"
 
     def __init__(self, params: PendulumPumpParams) -> None:
@@ -373,6 +374,8 @@ class PendulumPumpEnv(VegymEnv[PendulumPumpParams]):
     ``target_amplitude`` and ``target_energy`` (the target of this step; the observation already shows a change
     made at this step), ``dt``, ``reward_terms``, ``is_success``. Reference controller: energy pumping
     ``tau = sat(k_E (E* - E) omega, +-tau_max)`` (``agents.analytic``).
+    Another episode length takes both ``episode_steps=N`` and ``max_episode_steps=N``: the task plans for
+    ``episode_steps``, and ``max_episode_steps`` alone only moves the time limit (a longer one warns).
 
     ## Version History
     * v0: initial version.

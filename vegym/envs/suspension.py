@@ -181,6 +181,7 @@ class SuspensionTask(Task[SuspensionParams]):
     """Batched logic of Suspension-v0 (see :class:`SuspensionEnv`)."""
 
     params_cls = SuspensionParams
+    planned_length = "episode_steps"
     renderer = "vegym.render.suspension:SuspensionRenderer"
 
     def __init__(self, params: SuspensionParams) -> None:
@@ -314,6 +315,8 @@ class SuspensionEnv(VegymEnv[SuspensionParams]):
     ``v (v - v_b) > 0`` else ``c_min`` (``agents.analytic``). A stronger reference, the continuous skyhook
     (``c`` matching the sky damper's force ``c_max v`` within the damper's range), succeeds on 96% of the same
     50 roads with a mean return of -0.42.
+    Another episode length takes both ``episode_steps=N`` and ``max_episode_steps=N``: the task plans for
+    ``episode_steps``, and ``max_episode_steps`` alone only moves the time limit (a longer one warns).
 
     ## Version History
     * v0: initial version.
