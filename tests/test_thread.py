@@ -188,11 +188,28 @@ def test_actuators_are_spread_evenly_and_mirror_symmetric_where_they_can_be() ->
         ({"pluck_margin": 0.5}, "pluck_margin"),
         ({"settle_fraction": 1.0}, "settle_fraction"),
         ({"dt": 2.0}, "dt"),
+        ({"stiffness": 1e-6}, r"pluck_min=0.03 and stiffness=1e-06"),  # the pluck's energy was lost: NaN obs
+        ({"pluck_min": 1e-9}, r"pluck_min=1e-09 and stiffness=400.0"),
+        ({"natural_length": 300.0}, r"natural_length=300.0 .* rest shape"),  # the solver's RuntimeError before
     ],
 )
 def test_bad_parameters_raise_value_error_naming_them(kwargs: dict, name: str) -> None:
     with pytest.raises(ValueError, match=name):
         gym.make(ENV_ID, **kwargs)
+
+
+@pytest.mark.parametrize(
+    "kwargs",
+    [{"n_nodes": 64}, {"span": 0.2}, {"natural_length": 1.0}, {"natural_length": 100.0}, {"stiffness": 0.5}],
+)
+def test_far_from_default_threads_keep_finite_observations_and_rewards(kwargs: dict) -> None:
+    env = gym.make_vec(ENV_ID, num_envs=16, vectorization_mode="vector_entry_point", **kwargs)
+    obs, _ = env.reset(seed=0)
+    rng = np.random.default_rng(0)
+    for _ in range(50):
+        assert np.all(np.isfinite(obs)) and env.observation_space.contains(obs)
+        obs, reward, *_ = env.step(rng.uniform(-1.0, 1.0, env.action_space.shape).astype(np.float32))
+        assert np.all(np.isfinite(reward))
 
 
 def test_a_batch_of_several_blocks_steps_each_episode_as_alone_bit_for_bit() -> None:

@@ -55,6 +55,30 @@ class ThreadEnvParams(Params):
             raise invalid("pluck_min", self.pluck_min, f"(0, pluck_max={self.pluck_max}]")
         if not self.pluck_margin < 0.5:
             raise invalid("pluck_margin", self.pluck_margin, "[0, 0.5)")
+        try:
+            rest = thread.static_equilibrium(self.physics)
+        except RuntimeError as error:  # a thread far too slack (natural_length=300 m, say)
+            allowed = f"where the thread has a rest shape: {error}"
+            raise invalid("natural_length", self.natural_length, allowed) from None
+        weakest, scale = self._weakest_pluck(rest)
+        if not weakest > 1e-12 * scale / self.settle_fraction:  # a soft thread's energy dwarfs a small pluck's
+            raise ValueError(
+                f"pluck_min={self.pluck_min!r} and stiffness={self.stiffness!r} are outside the allowed range, where "
+                f"the smallest pluck's energy resolves settle_fraction={self.settle_fraction}: it adds {weakest:.3g} J "
+                f"to a thread of {scale:.3g} J (raise pluck_min or stiffness)"
+            )
+
+    def _weakest_pluck(self, rest: np.ndarray) -> tuple[float, float]:
+        """The least energy (J) a pluck of ``pluck_min`` adds to the thread at rest (``rest``, (N, 2)), up or down at
+        65 points of its range, and the scale of the thread's energy (J: its gravity and elastic parts' sizes)."""
+        at = self.span * np.linspace(self.pluck_margin, 1.0 - self.pluck_margin, 65)[:, None]
+        height = np.concatenate([np.full_like(at, self.pluck_min), np.full_like(at, -self.pluck_min)])
+        physics, still = self.physics, np.zeros((1, *rest.shape))
+        resting = float(thread.energy(rest[None], still, physics)[0])
+        shapes = plucked(rest, np.concatenate([at, at]), height, self.span)
+        weakest = float(np.min(thread.energy(shapes, np.zeros_like(shapes), physics))) - resting
+        gravity = self.node_mass * self.gravity * float(np.sum(rest[:, 1]))
+        return weakest, abs(gravity) + abs(resting - gravity)
 
     @property
     def physics(self) -> ThreadParams:
@@ -77,6 +101,17 @@ class ThreadEnvParams(Params):
         middle = 0.5 * (self.n_nodes + 1)
         at = (np.arange(self.n_actuators) + 1) * (self.n_nodes + 1) / (self.n_actuators + 1)
         return np.where(at > middle, np.ceil(at - 0.5), np.floor(at + 0.5)).astype(np.int64) - 1
+
+
+def plucked(rest: np.ndarray, at: np.ndarray, height: np.ndarray, span: float) -> np.ndarray:
+    """Positions (n, N, 2) (m) of the thread at rest (``rest``, (N, 2)) with a triangular pluck each: raised by
+    ``height`` (n, 1) (m, negative down) at ``at`` (n, 1) (m along the span), in proportion to the distance from
+    the nearer end."""
+    x = rest[:, 0]
+    shape = np.where(x <= at, x / at, (span - x) / (span - at))
+    positions = np.repeat(rest[None], len(at), axis=0)
+    positions[..., 1] += height * shape
+    return positions
 
 
 STEP_CONSTANTS = ("max_force", "dt", "settle_fraction", "effort_weight", "pluck_max", "velocity_scale")
@@ -241,10 +276,7 @@ class ThreadTask(Task[ThreadEnvParams]):
         u = rng.uniform(keys, _PLUCK_STREAM, 3)
         at = p.span * (p.pluck_margin + (1.0 - 2.0 * p.pluck_margin) * u[:, :1])
         height = (p.pluck_min + (p.pluck_max - p.pluck_min) * u[:, :1]) * np.where(u[:, 2:] < 0.5, 1.0, -1.0)
-        x = self.equilibrium[:, 0]
-        shape = np.where(x <= at, x / at, (p.span - x) / (p.span - at))
-        positions = np.repeat(self.equilibrium[None], len(keys), axis=0)
-        positions[..., 1] += height * shape
+        positions = plucked(self.equilibrium, at, height, p.span)
         velocities = np.zeros_like(positions)
         excess = thread.energy(positions, velocities, self.physics) - self.rest_energy
         return {"positions": positions, "velocities": velocities, "initial_excess": excess, "excess": excess.copy()}
