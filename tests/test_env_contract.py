@@ -75,9 +75,10 @@ PLANNED_LENGTHS = {
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)
-def test_a_time_limit_past_the_planned_length_warns_and_one_set_with_it_does_not(env_id: str) -> None:
-    """Registered, the time limit is the planned length; a longer one (max_episode_steps alone) warns once, from
-    the vector env when it is made and from the single env when an episode has run past the plan."""
+def test_a_time_limit_past_the_planned_length_warns_and_a_shorter_one_does_not(env_id: str) -> None:
+    """Registered, the time limit is the planned length; a longer one (max_episode_steps alone) warns once: from the
+    vector env when it is made, from the single env (which cannot see its TimeLimit) at the step past the plan. A
+    shorter one only cuts episodes, as truncation does."""
     name = PLANNED_LENGTHS.get(env_id)
     assert name == type(gym.make(env_id).unwrapped.task).planned_length
     if name is None:
@@ -87,26 +88,28 @@ def test_a_time_limit_past_the_planned_length_warns_and_one_set_with_it_does_not
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point")
-        gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point", max_episode_steps=planned - 1)
         shorter = {name: planned // 2, "max_episode_steps": planned // 2}
         gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point", **shorter)
+        gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point", max_episode_steps=planned - 1)
     assert caught == []
-    with pytest.warns(UserWarning, match=rf"max_episode_steps={planned + 1}, but the task plans episodes of {name}="):
-        gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point", max_episode_steps=planned + 1)
-    short, longer = planned // 2, planned // 2 + 2
-    env = gym.make(env_id, max_episode_steps=longer, **{name: short})  # the last two steps run past the plan
+    limit = planned + 1
+    with pytest.warns(UserWarning, match=rf"max_episode_steps={limit}, but the task plans episodes of {name}="):
+        gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point", max_episode_steps=limit)
+    short = planned // 2
+    env = gym.make(env_id, max_episode_steps=short + 2, **{name: short})
     action = np.full(env.action_space.shape, 0.8, np.float32)  # BouncingBall: e = 0.9 keeps the ball bouncing
     env.reset(seed=0)
-    for _ in range(longer):
+    for _ in range(short):
         env.step(action)
-    ran = rf"an episode ran {longer} steps, but the task plans episodes of {name}={short} steps"
+    ran = rf"an episode has run {short + 1} steps, but the task plans episodes of {name}={short} steps"
     with pytest.warns(UserWarning, match=ran):
-        env.reset()
+        env.step(action)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        for _ in range(longer):
-            env.step(action)
+        env.step(action)
         env.reset()
+        for _ in range(short + 2):
+            env.step(action)
     assert caught == []  # once per env
 
 

@@ -17,6 +17,7 @@ import importlib
 import itertools
 import numbers
 import os
+import sys
 from collections.abc import Callable, Mapping
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any, ClassVar, Generic, TypeVar
@@ -81,8 +82,9 @@ class Task(abc.ABC, Generic[P]):
         return None if self.planned_length is None else getattr(self.params, self.planned_length)
 
     def warn_unplanned_length(self, what: str) -> None:
-        """Warn that episodes run longer than the planned length (``what`` says how): the task still plans for it,
-        and only its parameter changes it. (A shorter time limit only cuts episodes, as truncation does.)"""
+        """Warn that episodes run past the planned length (``what`` says how): they outlive the task's demand
+        schedule or its charge for the steps left, and only its parameter changes the plan. A shorter time limit is
+        not warned of: it cuts episodes, as truncation does (their charges still count the planned steps)."""
         name = self.planned_length
         gym.logger.warn(
             f"{what}, but the task plans episodes of {name}={self.planned_steps} steps (its demand schedule or its "
@@ -417,7 +419,8 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
         self.state: State | None = None
         self._bound_state: State | None = None
         self._load_action = ActionLoader(1, self.action_space.shape)
-        self._unwarned_plan = self.task.planned_steps  # None once an episode past it was warned of
+        planned = self.task.planned_steps
+        self._warn_past = sys.maxsize if planned is None else planned  # the step count that warns; then never again
         self._out = self.task.outputs(1)
         self._renderer: Any = None
         self._window: Any = None
@@ -454,9 +457,6 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
         else:
             if state is not self._bound_state:
                 self._bind(state)
-            if self._unwarned_plan is not None and self._read_step() > self._unwarned_plan:
-                self.task.warn_unplanned_length(f"{type(self).__name__}: an episode ran {self._read_step()} steps")
-                self._unwarned_plan = None
             if seed is None:
                 state["step"][0] = 0
                 self._restart()
@@ -480,7 +480,11 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
         self._load_action(action)
         if self._run_step():
             self.task.after_step(state, self._out)
-        state["step"][0] = self._read_step() + 1
+        count = self._read_step() + 1
+        state["step"][0] = count
+        if count > self._warn_past:
+            self.task.warn_unplanned_length(f"{type(self).__name__}: an episode has run {count} steps")
+            self._warn_past = sys.maxsize
         info = self._read_info()
         if self.render_mode is not None:
             self._get_renderer().record(self._snapshot(), info)
