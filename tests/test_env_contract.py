@@ -552,13 +552,17 @@ def test_actions_of_any_numeric_dtype_are_taken_and_other_shapes_raise() -> None
         env.step(np.zeros(3))
     one_number = gym.make("vegym/BouncingBall-v0")
     one_number.reset(seed=0)
-    for bad in (None, 0.5 + 3j, np.array([0.5 + 0j])):  # not NaN, and no imaginary part dropped
+    for bad in (None, [None], np.array([None]), 0.5 + 3j, [0.5 + 3j], np.array([0.5 + 0j])):  # not NaN or real parts
         with pytest.raises(ValueError, match="is not an array of real numbers"):
             one_number.step(bad)
     vec = gym.make_vec("vegym/SteerableWheel-v0", num_envs=3, vectorization_mode="vector_entry_point")
     vec.reset(seed=0)
     with pytest.raises(ValueError, match="shape"):
         vec.step(np.zeros((2, 3)))  # transposed: the same number of values, in the wrong layout
+    one = gym.make_vec("vegym/SteerableWheel-v0", num_envs=1, vectorization_mode="vector_entry_point")
+    one.reset(seed=0)
+    with pytest.raises(ValueError, match=r"expected \(1, 2\)$"):  # a vector env's own shape, even for one sub-env
+        one.step(np.zeros((2, 3)))
 
 
 @pytest.mark.parametrize(("n", "dim"), [(1, 3), (1, 1), (5, 1), (5, 2)])

@@ -265,16 +265,20 @@ def action_shapes(n: int, dim: int) -> frozenset[tuple[int, ...]]:
     return frozenset({(n, dim), *([(dim,)] if n == 1 else []), *([(n,)] if dim == 1 else [])})
 
 
-def check_actions(action: Any, target: np.ndarray) -> np.ndarray:
+def _not_real(value: Any) -> bool:
+    """None or a complex number: numpy would read None as NaN and drop an imaginary part."""
+    return value is None or isinstance(value, complex | np.complexfloating)
+
+
+def check_actions(action: Any, target: np.ndarray, expected: tuple[int, ...] | None = None) -> np.ndarray:
     """Load ``action`` into ``target`` (float64, ``(n, action_dim)``) and return it. ValueError on another shape
     (also taken: a single env's ``(action_dim,)``, ``(n,)`` for one-dimensional actions, a scalar for one
-    number), on NaN/inf and on values outside [-1, 1] by more than ``ACTION_TOLERANCE`` (those within are
-    clipped)."""
+    number; the error names ``expected``, by default ``target``'s shape), on None and complex numbers, on NaN/inf
+    and on values outside [-1, 1] by more than ``ACTION_TOLERANCE`` (those within are clipped)."""
     a = action if isinstance(action, np.ndarray) else np.asarray(action)
     if not (a.shape in action_shapes(*target.shape) or a.size == target.size == 1):
-        expected = target.shape[1:] if target.shape[0] == 1 else target.shape  # a single env's own shape
-        raise ValueError(f"action has shape {a.shape}; expected {expected}")
-    if action is None or a.dtype.kind == "c":  # numpy would take None for NaN and drop imaginary parts
+        raise ValueError(f"action has shape {a.shape}; expected {expected or target.shape}")
+    if _not_real(action) or a.dtype.kind == "c" or (a.dtype.kind == "O" and any(map(_not_real, a.flat))):
         raise ValueError(f"action {action!r} is not an array of real numbers")
     if a.dtype.kind not in "fiu" or not a.dtype.isnative or not 4 <= a.dtype.itemsize <= 8:
         try:  # bool, float16, long double, object, big-endian, ...: converted by numpy first
@@ -298,9 +302,10 @@ class ActionLoader:
     """Loads and checks actions as :func:`check_actions` does, into one float64 ``(n, action_dim)`` array that it
     reuses; float32 and float64 arrays of the shapes an env steps with take a short path (no conversions)."""
 
-    def __init__(self, n: int, action_shape: tuple[int, ...]) -> None:
+    def __init__(self, n: int, action_shape: tuple[int, ...], single: bool = False) -> None:
         self.target = np.empty((n, *action_shape))
         self._direct_shapes = action_shapes(*self.target.shape)
+        self._expected = action_shape if single else self.target.shape  # the shape that errors name
 
     def __call__(self, action: Any) -> np.ndarray:
         """``action`` loaded into the target array (the array returned); ValueError as :func:`check_actions`."""
@@ -312,7 +317,7 @@ class ActionLoader:
             and _load_actions(action, self.target, ACTION_TOLERANCE) == 0
         ):
             return self.target
-        return check_actions(action, self.target)  # other arrays, and the errors
+        return check_actions(action, self.target, self._expected)  # other arrays, and the errors
 
 
 def load_object(path: str) -> Any:
@@ -418,7 +423,7 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
         self.action_space = self.task.action_space
         self.state: State | None = None
         self._bound_state: State | None = None
-        self._load_action = ActionLoader(1, self.action_space.shape)
+        self._load_action = ActionLoader(1, self.action_space.shape, single=True)
         planned = self.task.planned_steps
         self._warn_past = sys.maxsize if planned is None else planned  # the step count that warns; then never again
         self._out = self.task.outputs(1)
