@@ -55,6 +55,14 @@ class AnalyticController(abc.ABC):
         return (action[0] if single else action), state
 
 
+def restitution_action(speed: np.ndarray, apex: np.ndarray) -> np.ndarray:
+    """Actions (n, 1) of the restitution law that sends a ball at impact ``speed`` to ``apex``, both in
+    BouncingBall's observation units: ``e = sqrt(apex) / speed`` in [0, 1] (0 for a ball at rest)."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        e = np.where(speed > 0, np.sqrt(apex) / speed, 0.0)
+    return (2.0 * np.clip(e, 0.0, 1.0) - 1.0)[:, None]
+
+
 class BouncingBallMyopic(AnalyticController):
     """The chapter's restitution law aimed at the current target: ``e = sqrt(2 g (h* - r)) / v``, in [0, 1].
 
@@ -66,30 +74,22 @@ class BouncingBallMyopic(AnalyticController):
         self.params = params
 
     def act(self, obs: np.ndarray) -> np.ndarray:
-        speed, target = obs[:, 0], obs[:, 2]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            e = np.where(speed > 0, np.sqrt(target) / speed, 0.0)
-        return (2.0 * np.clip(e, 0.0, 1.0) - 1.0)[:, None]
+        return restitution_action(obs[:, 0], obs[:, 2])
 
 
-class BouncingBallLookahead(AnalyticController):
+class BouncingBallPlanner(BouncingBallMyopic):
     """Receding-horizon planning over the observed targets: a stronger reference on BouncingBall-v0.
 
-    At each impact it plans the apexes of the shown targets (the current one and the lookahead) as the oracle
-    plans the episode's (:func:`~vegym.envs.bouncing_ball.optimal_apexes`, from the highest apex still reachable)
-    and aims at the plan's first apex with the restitution law. It acts from the observation alone; it sees
-    neither the targets past the lookahead nor where the episode ends.
+    At each impact it plans the apexes of the shown targets (the current one and the ``lookahead`` next ones) as
+    the oracle plans the episode's (:func:`~vegym.envs.bouncing_ball.optimal_apexes`, from the highest apex still
+    reachable) and aims at the plan's first apex with the restitution law. It acts from the observation alone; it
+    sees neither the targets past the lookahead nor where the episode ends.
     """
 
-    def __init__(self, params: BouncingBallParams) -> None:
-        self.params = params
-
     def act(self, obs: np.ndarray) -> np.ndarray:
-        speed, reachable, targets = obs[:, 0], obs[:, 1], obs[:, 2:].astype(np.float64)
-        first = np.array([optimal_apexes(t, float(r), 0.0)[0] for t, r in zip(targets, reachable, strict=True)])
-        with np.errstate(divide="ignore", invalid="ignore"):
-            e = np.where(speed > 0, np.sqrt(first) / speed, 0.0)
-        return (2.0 * np.clip(e, 0.0, 1.0) - 1.0)[:, None]
+        reachable, targets = obs[:, 1], obs[:, 2:]
+        first = np.array([optimal_apexes(t, r, 0.0)[0] for t, r in zip(targets, reachable, strict=True)])
+        return restitution_action(obs[:, 0], first)
 
 
 class BouncingBallOracle:
@@ -124,10 +124,9 @@ class BouncingBallOracle:
         if step == 0:
             targets = self.env.task.targets(self.env.state["key"], self.episode_length)[0]
             self._plan = optimal_apexes(targets, p.drop_height, p.radius)
-        speed = float(obs.reshape(-1)[0])
         target = (self._plan[step] - p.radius) / p.height_scale
-        e = np.clip(np.sqrt(target) / speed, 0.0, 1.0) if speed > 0 else 0.0
-        return np.full((*obs.shape[:-1], 1), 2.0 * e - 1.0, dtype=np.float32), state
+        action = restitution_action(obs.reshape(-1)[:1], np.array([target]))
+        return np.full((*obs.shape[:-1], 1), action[0, 0], dtype=np.float32), state
 
 
 class ProjectileFiringSolution(AnalyticController):
@@ -279,7 +278,19 @@ class GearTrainProportional(AnalyticController):
         return (np.clip(demand, -p.max_speed, p.max_speed) / p.max_speed)[:, None]
 
 
-class SuspensionSkyhook(AnalyticController):
+class SuspensionDamperLaw(AnalyticController):
+    """Base of the semi-active damper laws: a damper coefficient (N s/m) mapped onto the action."""
+
+    def __init__(self, params: SuspensionParams) -> None:
+        self.params = params
+
+    def action(self, damping: np.ndarray) -> np.ndarray:
+        """Actions (n, 1) that set the dampers to ``damping`` (n,) (N s/m), in ``[damping_min, damping_max]``."""
+        p = self.params
+        return (2.0 * (damping - p.damping_min) / (p.damping_max - p.damping_min) - 1.0)[:, None]
+
+
+class SuspensionSkyhook(SuspensionDamperLaw):
     """On-off skyhook (PHYSICS.md section 8): the stiffest damper when ``v (v - v_b) > 0``, else the softest.
 
     The damper force ``-c (v - v_b)`` then opposes the body's absolute velocity v whenever it can, as a damper to
@@ -287,16 +298,12 @@ class SuspensionSkyhook(AnalyticController):
     them.
     """
 
-    def __init__(self, params: SuspensionParams) -> None:
-        self.params = params
-
     def act(self, obs: np.ndarray) -> np.ndarray:
         p = self.params
-        damping = suspension.skyhook_damping(obs[:, 1], obs[:, 2], p.damping_min, p.damping_max)
-        return (2.0 * (damping - p.damping_min) / (p.damping_max - p.damping_min) - 1.0)[:, None]
+        return self.action(suspension.skyhook_damping(obs[:, 1], obs[:, 2], p.damping_min, p.damping_max))
 
 
-class SuspensionContinuousSkyhook(SuspensionSkyhook):
+class SuspensionContinuousSkyhook(SuspensionDamperLaw):
     """Continuous (clipped) skyhook: the stronger reference on Suspension-v0.
 
     Where the on-off law is stiff, the damper takes the coefficient whose force ``-c (v - v_b)`` equals the sky
@@ -307,10 +314,8 @@ class SuspensionContinuousSkyhook(SuspensionSkyhook):
 
     def act(self, obs: np.ndarray) -> np.ndarray:
         p = self.params
-        damping = suspension.continuous_skyhook_damping(
-            obs[:, 1].astype(np.float64), obs[:, 2].astype(np.float64), p.damping_max, p.damping_min, p.damping_max
-        )
-        return (2.0 * (damping - p.damping_min) / (p.damping_max - p.damping_min) - 1.0)[:, None]
+        c_max, c_min = p.damping_max, p.damping_min
+        return self.action(suspension.continuous_skyhook_damping(obs[:, 1], obs[:, 2], c_max, c_min, c_max))
 
 
 class PendulumEnergyPumping(AnalyticController):

@@ -215,7 +215,7 @@ def markdown(
         f"episode seeds {seed}..{seed + episodes - 1}, deterministic actions. "
         "normalized = (R - R_random) / (R_analytic - R_random) per episode, averaged; IQM: the interquartile mean "
         "of the same scores; [95% CI]: bootstrap resampling the training seeds and, shared by them, the episodes; "
-        "*vs reference*: the mean against a stronger reference (BouncingBall: `lookahead`, planning over the shown "
+        "*vs reference*: the mean against a stronger reference (BouncingBall: `planner`, planning over the shown "
         "targets, and `oracle`, the exact optimum knowing every future target; AircraftGusty: "
         "`draft-compensating`, the autopilot with draft feed-forward; Suspension: `continuous-skyhook`, the clipped "
         "continuous skyhook).",

@@ -25,8 +25,8 @@ from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
 from agents.analytic import (
     AircraftDraftCompensatingAutopilot,
-    BouncingBallLookahead,
     BouncingBallOracle,
+    BouncingBallPlanner,
     SuspensionContinuousSkyhook,
     controller_for,
 )
@@ -127,7 +127,7 @@ def load_seeded(agent_dir: Path) -> tuple[dict[int, AgentFactory], TrainConfig]:
 
 REFERENCE_AGENTS: dict[str, dict[str, AgentFactory]] = {
     "vegym/BouncingBall-v0": {
-        "lookahead": lambda env: BouncingBallLookahead(env.unwrapped.params),
+        "planner": lambda env: BouncingBallPlanner(env.unwrapped.params),
         "oracle": BouncingBallOracle,
     },
     "vegym/AircraftGusty-v0": {

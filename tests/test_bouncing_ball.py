@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 import vegym  # noqa: F401
-from agents.analytic import BouncingBallLookahead, BouncingBallMyopic, BouncingBallOracle, controller_for
+from agents.analytic import BouncingBallMyopic, BouncingBallOracle, BouncingBallPlanner, controller_for
 from vegym.envs.bouncing_ball import BouncingBallParams, optimal_apexes
 
 ENV_ID = "vegym/BouncingBall-v0"
@@ -180,26 +180,26 @@ def test_optimum_beats_myopic_everywhere_and_strictly_somewhere_and_both_beat_ra
     assert myopic.mean() > random.mean() + 1.0 and oracle.mean() > myopic.mean()
 
 
-def test_lookahead_planning_from_the_observation_lies_between_myopic_and_the_optimum() -> None:
+def test_planning_over_the_shown_targets_lies_between_myopic_and_the_optimum() -> None:
     env = gym.make(ENV_ID)
     seeds = range(200)
     myopic = episode_returns(env, lambda o: controller_for(env).predict(o)[0], seeds)
-    planner = BouncingBallLookahead(env.unwrapped.params)
-    lookahead = episode_returns(env, lambda o: planner.predict(o)[0], seeds)
+    planner = BouncingBallPlanner(env.unwrapped.params)
+    planned = episode_returns(env, lambda o: planner.predict(o)[0], seeds)
     oracle_controller = BouncingBallOracle(env)
     oracle = episode_returns(env, lambda o: oracle_controller.predict(o)[0], seeds)
     print(
-        f"\nBouncingBall-v0 over {len(seeds)} episodes: myopic {myopic.mean():.3f}, lookahead {lookahead.mean():.3f}, "
+        f"\nBouncingBall-v0 over {len(seeds)} episodes: myopic {myopic.mean():.3f}, planner {planned.mean():.3f}, "
         f"oracle {oracle.mean():.3f}"
     )
-    assert myopic.mean() + 0.1 < lookahead.mean() < oracle.mean()
-    assert np.all(lookahead <= oracle + 1e-6)
+    assert myopic.mean() + 0.1 < planned.mean() < oracle.mean()
+    assert np.all(planned <= oracle + 1e-6)
 
 
-def test_lookahead_planner_without_lookahead_is_the_myopic_law() -> None:
+def test_planner_without_lookahead_is_the_myopic_law() -> None:
     env = gym.make_vec(ENV_ID, num_envs=64, vectorization_mode="vector_entry_point", lookahead=0)
     params = env.unwrapped.params
-    planner, myopic = BouncingBallLookahead(params), BouncingBallMyopic(params)
+    planner, myopic = BouncingBallPlanner(params), BouncingBallMyopic(params)
     obs, _ = env.reset(seed=2)
     for _ in range(10):
         action = planner.predict(obs)[0]
@@ -220,7 +220,7 @@ def test_oracle_acts_for_one_single_env_and_refuses_batches_and_vector_envs() ->
         BouncingBallOracle(gym.make_vec(ENV_ID, num_envs=4, vectorization_mode="vector_entry_point"))
 
 
-@pytest.mark.parametrize("controller_cls", [BouncingBallMyopic, BouncingBallLookahead])
+@pytest.mark.parametrize("controller_cls", [BouncingBallMyopic, BouncingBallPlanner])
 def test_controllers_predict_batches_like_single_observations(controller_cls: type) -> None:
     env = gym.make_vec(ENV_ID, num_envs=16, vectorization_mode="vector_entry_point")
     obs, _ = env.reset(seed=3)

@@ -313,11 +313,11 @@ def test_bouncing_ball_analytic_score_matches_the_closed_form() -> None:
     assert result.record()["mean_return"] == pytest.approx(np.mean(expected), abs=1e-5)
 
 
-def test_oracle_is_never_beaten_by_the_analytic_controller_or_the_lookahead_planner() -> None:
+def test_oracle_is_never_beaten_by_the_analytic_controller_or_the_planner() -> None:
     results = {r.agent: r for r in evaluate_agents("vegym/BouncingBall-v0", {}, episodes=20)}
-    assert set(results) == {"analytic", "random", "lookahead", "oracle"}
+    assert set(results) == {"analytic", "random", "planner", "oracle"}
     assert np.all(results["oracle"].returns >= results["analytic"].returns - 1e-6)
-    assert np.all(results["oracle"].returns >= results["lookahead"].returns - 1e-6)
+    assert np.all(results["oracle"].returns >= results["planner"].returns - 1e-6)
     assert results["analytic"].normalized_score == pytest.approx(1.0)
     assert results["random"].normalized_score == pytest.approx(0.0)
     assert results["oracle"].normalized_score_vs["oracle"] == pytest.approx(1.0)
@@ -480,7 +480,7 @@ def test_compare_retrains_on_a_tiny_budget_and_writes_every_file(tmp_path: Path)
     records = json.loads((out / "compare.json").read_text())
     agents = {(r["env_id"], r["agent"]) for r in records}
     assert agents == {
-        *(("vegym/BouncingBall-v0", a) for a in ("analytic", "random", "lookahead", "oracle", "ppo")),
+        *(("vegym/BouncingBall-v0", a) for a in ("analytic", "random", "planner", "oracle", "ppo")),
         *(("vegym/Projectile-v0", a) for a in ("analytic", "random", "ppo")),
     }
     for r in records:
@@ -509,7 +509,7 @@ def test_compare_retrains_on_a_tiny_budget_and_writes_every_file(tmp_path: Path)
             command = f"vegym train --env {name} --algo ppo --seed {seed} --out {run} --timesteps 256"
             assert (run / "command.txt").read_text().strip() == command
     assert (out / "BouncingBall-v0_oracle.gif").stat().st_size > 0
-    assert (out / "BouncingBall-v0_lookahead.gif").stat().st_size > 0
+    assert (out / "BouncingBall-v0_planner.gif").stat().st_size > 0
     assert (out / "normalized_scores.png").stat().st_size > 0
 
 

@@ -345,7 +345,7 @@ class AircraftTask(Task[AircraftEnvParams]):
     """Batched logic of Aircraft-v0 (see :class:`AircraftEnv`)."""
 
     params_cls = AircraftEnvParams
-    planned_length = "episode_steps"
+    planned_length_param = "episode_steps"
     renderer = "vegym.render.aircraft:AircraftRenderer"
 
     def __init__(self, params: AircraftEnvParams) -> None:

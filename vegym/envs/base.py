@@ -66,7 +66,7 @@ class Task(abc.ABC, Generic[P]):
     write them, every element of a row they start. The vector env's infos return read-only views of them, not
     copies, and its state gets new ones before episodes start."""
 
-    planned_length: ClassVar[str | None] = None
+    planned_length_param: ClassVar[str | None] = None
     """The parameter holding the episode length the task plans for (a demand schedule's end, a charge for the
     steps left), which ``max_episode_steps`` must equal; None if the task plans for no length."""
 
@@ -78,14 +78,14 @@ class Task(abc.ABC, Generic[P]):
 
     @property
     def planned_steps(self) -> int | None:
-        """The episode length (steps) the task plans for (:attr:`planned_length`), or None."""
-        return None if self.planned_length is None else getattr(self.params, self.planned_length)
+        """The episode length (steps) the task plans for (:attr:`planned_length_param`), or None."""
+        return None if self.planned_length_param is None else getattr(self.params, self.planned_length_param)
 
     def warn_unplanned_length(self, what: str) -> None:
         """Warn that episodes run past the planned length (``what`` says how): they outlive the task's demand
         schedule or its charge for the steps left, and only its parameter changes the plan. A shorter time limit is
         not warned of: it cuts episodes, as truncation does (their charges still count the planned steps)."""
-        name = self.planned_length
+        name = self.planned_length_param
         gym.logger.warn(
             f"{what}, but the task plans episodes of {name}={self.planned_steps} steps (its demand schedule or its "
             f"charge for the steps left); to change the episode length pass both {name}=N and max_episode_steps=N"

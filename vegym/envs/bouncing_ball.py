@@ -346,7 +346,7 @@ class BouncingBallTask(Task[BouncingBallParams]):
     """Batched logic of BouncingBall-v0 (see :class:`BouncingBallEnv`)."""
 
     params_cls = BouncingBallParams
-    planned_length = "episode_bounces"
+    planned_length_param = "episode_bounces"
     renderer = "vegym.render.bouncing_ball:BouncingBallRenderer"
 
     def __init__(self, params: BouncingBallParams) -> None:

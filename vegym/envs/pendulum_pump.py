@@ -228,7 +228,7 @@ class PendulumPumpTask(Task[PendulumPumpParams]):
     """Batched logic of PendulumPump-v0 (see :class:`PendulumPumpEnv`)."""
 
     params_cls = PendulumPumpParams
-    planned_length = "episode_steps"
+    planned_length_param = "episode_steps"
     renderer = "vegym.render.pendulum_pump:PendulumPumpRenderer"
 
     def __init__(self, params: PendulumPumpParams) -> None:

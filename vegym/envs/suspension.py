@@ -181,7 +181,7 @@ class SuspensionTask(Task[SuspensionParams]):
     """Batched logic of Suspension-v0 (see :class:`SuspensionEnv`)."""
 
     params_cls = SuspensionParams
-    planned_length = "episode_steps"
+    planned_length_param = "episode_steps"
     renderer = "vegym.render.suspension:SuspensionRenderer"
 
     def __init__(self, params: SuspensionParams) -> None:
