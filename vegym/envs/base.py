@@ -68,7 +68,7 @@ class Task(abc.ABC, Generic[P]):
 
     planned_length_param: ClassVar[str | None] = None
     """The parameter holding the episode length the task plans for (a demand schedule's end, a charge for the
-    steps left), which ``max_episode_steps`` must equal; None if the task plans for no length."""
+    steps left), the registered ``max_episode_steps``; None if the task plans for no length."""
 
     observation_space: spaces.Box
     action_space: spaces.Box
