@@ -63,21 +63,25 @@ def restitution_action(speed: np.ndarray, apex: np.ndarray) -> np.ndarray:
     return (2.0 * np.clip(e, 0.0, 1.0) - 1.0)[:, None]
 
 
-class BouncingBallMyopic(AnalyticController):
+class BouncingBallLaw(AnalyticController):
+    """Base of the restitution laws acting from BouncingBall's observation."""
+
+    def __init__(self, params: BouncingBallParams) -> None:
+        self.params = params
+
+
+class BouncingBallMyopic(BouncingBallLaw):
     """The chapter's restitution law aimed at the current target: ``e = sqrt(2 g (h* - r)) / v``, in [0, 1].
 
     In the observation's units (``v / v_drop`` and ``(h* - r) / (drop_height - r)``) this is
     ``e = sqrt(target) / speed``, since ``v_drop^2 = 2 g (drop_height - r)``.
     """
 
-    def __init__(self, params: BouncingBallParams) -> None:
-        self.params = params
-
     def act(self, obs: np.ndarray) -> np.ndarray:
         return restitution_action(obs[:, 0], obs[:, 2])
 
 
-class BouncingBallPlanner(BouncingBallMyopic):
+class BouncingBallPlanner(BouncingBallLaw):
     """Receding-horizon planning over the observed targets: a stronger reference on BouncingBall-v0.
 
     At each impact it plans the apexes of the shown targets (the current one and the ``lookahead`` next ones) as

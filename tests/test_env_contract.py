@@ -564,7 +564,9 @@ def test_actions_of_any_numeric_dtype_are_taken_and_other_shapes_raise() -> None
         env.step(np.zeros(3))
     one_number = gym.make("vegym/BouncingBall-v0")
     one_number.reset(seed=0)
-    for bad in (None, [None], np.array([None]), 0.5 + 3j, [0.5 + 3j], np.array([0.5 + 0j])):  # not NaN or real parts
+    zero_d = np.empty(1, object)
+    zero_d[0] = np.array(0.5 + 3j)  # a 0-d array inside an object array
+    for bad in (None, [None], np.array([None]), 0.5 + 3j, [0.5 + 3j], np.array([0.5 + 0j]), zero_d, "0.5", ["0.5"]):
         with pytest.raises(ValueError, match="is not an array of real numbers"):
             one_number.step(bad)
     vec = gym.make_vec("vegym/SteerableWheel-v0", num_envs=3, vectorization_mode="vector_entry_point")

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import re
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -188,14 +190,24 @@ def test_actuators_are_spread_evenly_and_mirror_symmetric_where_they_can_be() ->
         ({"pluck_margin": 0.5}, "pluck_margin"),
         ({"settle_fraction": 1.0}, "settle_fraction"),
         ({"dt": 2.0}, "dt"),
-        ({"stiffness": 1e-6}, r"pluck_min=0.03 and stiffness=1e-06"),  # the pluck's energy was lost: NaN obs
-        ({"pluck_min": 1e-9}, r"pluck_min=1e-09 and stiffness=400.0"),
-        ({"natural_length": 300.0}, r"natural_length=300.0 .* rest shape"),  # the solver's RuntimeError before
+        ({"stiffness": 1e-6}, r"pluck_min=0.03 is outside the allowed range empty for so soft a thread"),  # NaN obs
+        ({"pluck_min": 1e-9}, r"pluck_min=1e-09 is outside the allowed range about \[2.07e-07, pluck_max\]"),
+        ({"natural_length": 300.0}, r"natural_length=300.0 .* rest-shape solver"),  # the solver's RuntimeError before
     ],
 )
 def test_bad_parameters_raise_value_error_naming_them(kwargs: dict, name: str) -> None:
     with pytest.raises(ValueError, match=name):
         gym.make(ENV_ID, **kwargs)
+
+
+@pytest.mark.parametrize("settle_fraction", [0.01, 1e-6])
+def test_the_smallest_pluck_named_in_the_error_is_about_the_one_that_passes(settle_fraction: float) -> None:
+    with pytest.raises(ValueError, match=r"about \[") as error:
+        ThreadEnvParams(pluck_min=1e-9, settle_fraction=settle_fraction)
+    named = float(re.search(r"about \[([0-9.e+-]+),", str(error.value)).group(1))
+    ThreadEnvParams(pluck_min=1.1 * named, settle_fraction=settle_fraction)
+    with pytest.raises(ValueError, match="pluck_min"):
+        ThreadEnvParams(pluck_min=0.8 * named, settle_fraction=settle_fraction)
 
 
 @pytest.mark.parametrize(

@@ -508,9 +508,9 @@ class AircraftEnv(VegymEnv[AircraftEnvParams]):
     ``reward_terms``, ``is_success``. Reference controller: the chapter's autopilot, three decoupled
     saturated P loops with gains 0.2, 0.5, 0.5 /s (``agents.analytic``).
     Another episode length takes both ``episode_steps=N`` and ``max_episode_steps=N``: the task plans for
-    ``episode_steps``, and ``max_episode_steps`` alone only moves the time limit. A shorter one cuts episodes (their
-    charges still count the planned steps); a longer one outlives the plan and warns (a vector env when made, a
-    single env at the step past the plan).
+    ``episode_steps``, and ``max_episode_steps`` alone only moves the time limit. A shorter one cuts episodes, whose
+    demand may then change within ``final_hold`` of the cut; a longer one outlives the plan and warns (a vector env
+    when made, a single env at the step past the plan).
 
     ## Version History
     * v0: initial version.

@@ -84,7 +84,8 @@ class Task(abc.ABC, Generic[P]):
     def warn_unplanned_length(self, what: str) -> None:
         """Warn that episodes run past the planned length (``what`` says how): they outlive the task's demand
         schedule or its charge for the steps left, and only its parameter changes the plan. A shorter time limit is
-        not warned of: it cuts episodes, as truncation does (their charges still count the planned steps)."""
+        not warned of: it cuts episodes, as truncation does (before the schedule's final hold, with charges that
+        still count the planned steps)."""
         name = self.planned_length_param
         gym.logger.warn(
             f"{what}, but the task plans episodes of {name}={self.planned_steps} steps (its demand schedule or its "
@@ -265,20 +266,24 @@ def action_shapes(n: int, dim: int) -> frozenset[tuple[int, ...]]:
     return frozenset({(n, dim), *([(dim,)] if n == 1 else []), *([(n,)] if dim == 1 else [])})
 
 
-def _not_real(value: Any) -> bool:
-    """None or a complex number: numpy would read None as NaN and drop an imaginary part."""
-    return value is None or isinstance(value, complex | np.complexfloating)
+def _is_real(value: Any) -> bool:
+    """Whether an element of an object array is a real number (a 0-d array holding one too). Numpy would read None
+    as NaN, drop an imaginary part and parse a string."""
+    if isinstance(value, np.ndarray) and value.ndim == 0:
+        value = value.item()
+    return isinstance(value, numbers.Real | np.bool_)
 
 
 def check_actions(action: Any, target: np.ndarray, expected: tuple[int, ...] | None = None) -> np.ndarray:
     """Load ``action`` into ``target`` (float64, ``(n, action_dim)``) and return it. ValueError on another shape
     (also taken: a single env's ``(action_dim,)``, ``(n,)`` for one-dimensional actions, a scalar for one
-    number; the error names ``expected``, by default ``target``'s shape), on None and complex numbers, on NaN/inf
-    and on values outside [-1, 1] by more than ``ACTION_TOLERANCE`` (those within are clipped)."""
+    number; the error names ``expected``, by default ``target``'s shape), on anything but real numbers (None,
+    complex numbers, strings), on NaN/inf and on values outside [-1, 1] by more than ``ACTION_TOLERANCE`` (those
+    within are clipped)."""
     a = action if isinstance(action, np.ndarray) else np.asarray(action)
     if not (a.shape in action_shapes(*target.shape) or a.size == target.size == 1):
         raise ValueError(f"action has shape {a.shape}; expected {expected or target.shape}")
-    if _not_real(action) or a.dtype.kind == "c" or (a.dtype.kind == "O" and any(map(_not_real, a.flat))):
+    if a.dtype.kind in "cSUV" or (a.dtype.kind == "O" and not all(map(_is_real, a.flat))):
         raise ValueError(f"action {action!r} is not an array of real numbers")
     if a.dtype.kind not in "fiu" or not a.dtype.isnative or not 4 <= a.dtype.itemsize <= 8:
         try:  # bool, float16, long double, object, big-endian, ...: converted by numpy first

@@ -507,9 +507,9 @@ class BouncingBallEnv(VegymEnv[BouncingBallParams]):
     optimum, which knows the episode's every target. Over seeds 0-199 their mean returns are -0.59, -0.43 and
     -0.34 (``tests/test_bouncing_ball.py``).
     Another episode length takes both ``episode_bounces=N`` and ``max_episode_steps=N``: the task plans for
-    ``episode_bounces``, and ``max_episode_steps`` alone only moves the time limit. A shorter one cuts episodes
-    (their charges still count the planned steps); a longer one outlives the plan and warns (a vector env when made,
-    a single env at the step past the plan).
+    ``episode_bounces``, and ``max_episode_steps`` alone only moves the time limit. A shorter one cuts episodes,
+    whose rest charge still counts the planned bounces; a longer one outlives the plan and warns (a vector env when
+    made, a single env at the step past the plan).
 
     ## Version History
     * v0: initial version.

@@ -316,9 +316,9 @@ class SuspensionEnv(VegymEnv[SuspensionParams]):
     (``c`` matching the sky damper's force ``c_max v`` within the damper's range), succeeds on 96% of the same
     50 roads with a mean return of -0.42.
     Another episode length takes both ``episode_steps=N`` and ``max_episode_steps=N``: the task plans for
-    ``episode_steps``, and ``max_episode_steps`` alone only moves the time limit. A shorter one cuts episodes (their
-    charges still count the planned steps); a longer one outlives the plan and warns (a vector env when made, a
-    single env at the step past the plan).
+    ``episode_steps``, and ``max_episode_steps`` alone only moves the time limit. A shorter one cuts episodes, whose
+    bump-stop charge still counts the planned steps; a longer one outlives the plan and warns (a vector env when
+    made, a single env at the step past the plan).
 
     ## Version History
     * v0: initial version.

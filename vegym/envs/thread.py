@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -58,25 +59,31 @@ class ThreadEnvParams(Params):
         try:
             rest = thread.static_equilibrium(self.physics)
         except RuntimeError as error:  # a thread far too slack (natural_length=300 m, say)
-            allowed = f"where the thread has a rest shape: {error}"
+            allowed = f"where the rest-shape solver converges: {error}"
             raise invalid("natural_length", self.natural_length, allowed) from None
-        weakest, scale = self._weakest_pluck(rest)
-        if not weakest > 1e-12 * scale / self.settle_fraction:  # a soft thread's energy dwarfs a small pluck's
-            raise ValueError(
-                f"pluck_min={self.pluck_min!r} and stiffness={self.stiffness!r} are outside the allowed range, where "
-                f"the smallest pluck's energy resolves settle_fraction={self.settle_fraction}: it adds {weakest:.3g} J "
-                f"to a thread of {scale:.3g} J (raise pluck_min or stiffness)"
-            )
+        (weakest, strongest), scale = self._weakest_plucks(rest, (self.pluck_min, self.pluck_max))
+        least = 1e-14 * scale / self.settle_fraction  # 50 times the rounding of the energy, per settle_fraction
+        if not weakest > least:  # rounding would decide when the episode settles, or the pluck adds no energy
+            told = f"a pluck of pluck_min adds {weakest:.3g} J to a thread of {scale:.3g} J"
+            if strongest > least:  # about: the pluck's energy grows as its height squared
+                allowed = f"about [{self.pluck_max * math.sqrt(least / strongest):.3g}, pluck_max] ({told}"
+            else:
+                allowed = f"empty for so soft a thread ({told}, one of pluck_max {strongest:.3g} J"
+            allowed += f"; settle_fraction={self.settle_fraction!r} needs {least:.3g} J)"
+            raise invalid("pluck_min", self.pluck_min, allowed)
 
-    def _weakest_pluck(self, rest: np.ndarray) -> tuple[float, float]:
-        """The least energy (J) a pluck of ``pluck_min`` adds to the thread at rest (``rest``, (N, 2)), up or down at
-        65 points of its range, and the scale of the thread's energy (J: its gravity and elastic parts' sizes)."""
+    def _weakest_plucks(self, rest: np.ndarray, heights: tuple[float, ...]) -> tuple[list[float], float]:
+        """The least energy (J) a pluck of each of ``heights`` (m) adds to the thread at rest (``rest``, (N, 2)), up
+        or down at 65 points of the pluck's range, and the scale of the thread's energy (J: the sizes of its
+        gravity and elastic parts)."""
+        physics = self.physics
+        resting = float(thread.energy(rest[None], np.zeros((1, *rest.shape)), physics)[0])
         at = self.span * np.linspace(self.pluck_margin, 1.0 - self.pluck_margin, 65)[:, None]
-        height = np.concatenate([np.full_like(at, self.pluck_min), np.full_like(at, -self.pluck_min)])
-        physics, still = self.physics, np.zeros((1, *rest.shape))
-        resting = float(thread.energy(rest[None], still, physics)[0])
-        shapes = plucked(rest, np.concatenate([at, at]), height, self.span)
-        weakest = float(np.min(thread.energy(shapes, np.zeros_like(shapes), physics))) - resting
+        weakest = []
+        for height in heights:
+            up_and_down = np.concatenate([np.full_like(at, height), np.full_like(at, -height)])
+            shapes = plucked(rest, np.concatenate([at, at]), up_and_down, self.span)
+            weakest.append(float(np.min(thread.energy(shapes, np.zeros_like(shapes), physics))) - resting)
         gravity = self.node_mass * self.gravity * float(np.sum(rest[:, 1]))
         return weakest, abs(gravity) + abs(resting - gravity)
 
