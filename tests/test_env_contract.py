@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import copy
 import dataclasses
+import itertools
 import math
 import os
 import pickle
@@ -432,6 +433,46 @@ def test_transition_is_the_env_step_as_a_pure_function(env_id: str) -> None:
             break
 
 
+def info_arrays(tree: dict) -> list[np.ndarray]:
+    """The arrays among the values of a (nested) info dict."""
+    arrays = []
+    for value in tree.values():
+        if isinstance(value, dict):
+            arrays += info_arrays(value)
+        elif isinstance(value, np.ndarray):
+            arrays.append(value)
+    return arrays
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_single_env_infos_are_row_zero_in_arrays_that_share_memory_with_nothing(env_id: str) -> None:
+    """The info reader slices some entries from one copy of an output's row (Billiards's 2-vectors): each entry
+    must still equal its row, and writing into one must change neither the env nor another entry."""
+    env = gym.make(env_id)
+    env.reset(seed=4)
+    unwrapped = env.unwrapped
+
+    def row_zero(tree: dict) -> dict:
+        return {
+            name: row_zero(value)
+            if isinstance(value, dict)
+            else (value.item(0) if value.ndim == 1 else value[0].copy())
+            if isinstance(value, np.ndarray)
+            else value
+            for name, value in tree.items()
+        }
+
+    env_arrays = [*unwrapped.state.values(), *unwrapped._out.values()]
+    for action in random_actions(env_id, 6, seed=5):
+        _, _, terminated, truncated, info = env.step(action)
+        assert_same(info, row_zero(unwrapped.task.info(unwrapped.state, unwrapped._out)))
+        arrays = info_arrays(info)
+        for i, array in enumerate(arrays):
+            assert not any(np.shares_memory(array, other) for other in [*arrays[i + 1 :], *env_arrays])
+        if terminated or truncated:
+            env.reset()
+
+
 EPISODE_CONSTANT_ENV_IDS = [
     env_id for env_id in ENV_IDS if base.load_object(gym.spec(env_id).entry_point).task_cls.episode_constants
 ]
@@ -581,22 +622,26 @@ def test_actions_of_any_numeric_dtype_are_taken_and_other_shapes_raise() -> None
 
 @pytest.mark.parametrize(("n", "dim"), [(1, 3), (1, 1), (5, 1), (5, 2)])
 @pytest.mark.parametrize("dtype", [np.float32, np.float64])
-def test_action_loader_short_path_loads_as_check_actions_does(n: int, dim: int, dtype: type) -> None:
-    """Float arrays of an env's own shapes skip the general checks; they must load (clip within the tolerance)
-    and fail exactly as check_actions does."""
+def test_action_loader_short_paths_load_as_check_actions_does(n: int, dim: int, dtype: type) -> None:
+    """Float arrays of an env's own shapes skip the general checks (a single env's, of its action's shape, even
+    numba's copy); they must load (clip within the tolerance, keep -0.0 and the bounds) and fail exactly as
+    check_actions does."""
     rng = np.random.default_rng(n * dim)
-    values = rng.uniform(-1.0, 1.0, (n, dim))
-    values.flat[0], values.flat[-1] = 1.0 + base.ACTION_TOLERANCE / 2, -1.0 - base.ACTION_TOLERANCE / 2
-    shapes = {(n, dim), *([(dim,)] if n == 1 else []), *([(n,)] if dim == 1 else [])}
-    for shape in shapes:
-        action = values.astype(dtype).reshape(shape)
-        loader = base.ActionLoader(n, (dim,))
-        np.testing.assert_array_equal(loader(action), base.check_actions(action, np.empty((n, dim))))
-        for bad, message in ((np.nan, "NaN"), (1.5, "outside")):
-            broken = action.copy()
-            broken.flat[-1] = bad
-            with pytest.raises(ValueError, match=message):
-                loader(broken)
+    edges = [1.0, -1.0, -0.0, 1.0 + base.ACTION_TOLERANCE / 2, -1.0 - base.ACTION_TOLERANCE / 2]
+    for values in (rng.uniform(-1.0, 1.0, (n, dim)), *(np.full((n, dim), edge) for edge in edges)):
+        shapes = {(n, dim), *([(dim,)] if n == 1 else []), *([(n,)] if dim == 1 else [])}
+        loaders = [base.ActionLoader(n, (dim,))]
+        if n == 1:
+            loaders.append(base.single_action_loader(base.ActionLoader(1, (dim,), single=True)))
+        for shape, loader in itertools.product(shapes, loaders):
+            action = values.astype(dtype).reshape(shape)
+            expected = base.check_actions(action, np.empty((n, dim)))
+            assert loader(action).tobytes() == expected.tobytes()  # bit for bit: -0.0 too
+            for position, (bad, message) in itertools.product((0, -1), ((np.nan, "NaN"), (1.5, "outside"))):
+                broken = action.copy()
+                broken.flat[position] = bad
+                with pytest.raises(ValueError, match=message):
+                    loader(broken)
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)
