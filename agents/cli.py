@@ -17,7 +17,7 @@ from rich.table import Table
 from rich.text import Text
 
 import vegym
-from agents.config import ALGOS, CONFIG_DIR, ConfigError, TrainConfig, env_name, load_config, resolve_env_id
+from agents.config import ALGOS, CONFIG_DIR, ConfigError, TrainConfig, env_name, load_config
 from agents.evaluation import EVAL_SEED, REFERENCE_AGENTS, agent_factory, evaluate_agents, run_episode
 
 console = Console(highlight=False, width=None if sys.stdout.isatty() else 160)
@@ -99,7 +99,7 @@ def cmd_train(args: argparse.Namespace) -> int:
 
     from agents.training import CONFIG_FILE, resume_config, train
 
-    env_id = resolve_env_id(args.env)
+    env_id = vegym.resolve_env_id(args.env)
     out = Path(args.out) if args.out else Path("runs") / env_name(env_id) / args.algo
     torch.set_num_threads(args.threads)
     if args.seeds is not None:
@@ -198,7 +198,7 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     """Evaluate one agent; print its metrics as a table and JSON."""
     from agents.compare import TABLE_COLUMNS, table_rows
 
-    env_id = resolve_env_id(args.env)
+    env_id = vegym.resolve_env_id(args.env)
     if args.json:
         _check_output(Path(args.json))
     name, factory, config = agent_factory(args.agent, env_id, args.seed)
@@ -225,7 +225,7 @@ def cmd_compare(args: argparse.Namespace) -> int:
     from agents.compare import TABLE_COLUMNS, compare, table_rows
 
     torch.set_num_threads(args.threads)
-    env_ids = [resolve_env_id(e) for e in args.envs] if args.envs else list(vegym.ENVS)
+    env_ids = [vegym.resolve_env_id(e) for e in args.envs] if args.envs else list(vegym.ENVS)
     start = time.perf_counter()
     records, notes = compare(
         env_ids,
@@ -262,7 +262,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         write_best_config,
     )
 
-    env_id = resolve_env_id(args.env)
+    env_id = vegym.resolve_env_id(args.env)
     study_name = args.study or f"{env_name(env_id)}-{args.algo}"
     settings = SweepSettings(
         env_id=env_id,
@@ -292,7 +292,7 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 def cmd_demo(args: argparse.Namespace) -> int:
     """Show episodes on screen, or save one as a GIF."""
-    env_id = resolve_env_id(args.env)
+    env_id = vegym.resolve_env_id(args.env)
     if args.gif:
         _check_output(Path(args.gif), ".gif")
     name, factory, config = agent_factory(args.agent, env_id, args.seed)

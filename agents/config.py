@@ -150,14 +150,6 @@ def env_name(env_id: str) -> str:
     return env_id.split("/", 1)[-1]
 
 
-def resolve_env_id(name: str) -> str:
-    """The registered id for ``vegym/Name-v0`` or ``Name-v0``; ValueError listing the ids otherwise."""
-    for env_id in vegym.ENVS:
-        if name in (env_id, env_name(env_id)):
-            return env_id
-    raise ValueError(f"unknown env {name!r}; registered: {', '.join(vegym.ENVS)}")
-
-
 def constructor_hints(cls: type) -> dict[str, Any]:
     """The annotations of ``cls.__init__``'s parameters (``inspect.Parameter.empty`` where there is none)."""
     return {name: p.annotation for name, p in inspect.signature(cls.__init__).parameters.items()}

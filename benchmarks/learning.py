@@ -23,8 +23,8 @@ import torch
 from stable_baselines3.common.env_util import make_vec_env
 from stable_baselines3.common.vec_env import VecEnv, VecNormalize
 
-import vegym  # noqa: F401 (registers the envs)
-from agents.config import CONFIG_DIR, TrainConfig, load_configs, resolve_env_id
+import vegym
+from agents.config import CONFIG_DIR, TrainConfig, load_configs
 from agents.training import build_model, make_env
 
 REFERENCE = "Pendulum-v1"
@@ -99,7 +99,7 @@ def main() -> None:
     if args.rollouts < 1 or args.pairs < 1:
         parser.error(f"--rollouts and --pairs must be at least 1; got {args.rollouts} and {args.pairs}")
     try:
-        env_ids = [resolve_env_id(name) for name in args.envs]
+        env_ids = [vegym.resolve_env_id(name) for name in args.envs]
     except ValueError as exc:
         parser.error(str(exc))
     unknown = [env_id for env_id in env_ids if env_id not in configs]

@@ -22,7 +22,6 @@ import gymnasium as gym
 
 import vegym
 from agents.analytic import controller_for
-from agents.config import resolve_env_id
 
 CARTPOLE = "CartPole-v1"
 VECTOR_SIZES = (1, 64, 1024, 8192)
@@ -149,7 +148,7 @@ def main() -> None:
     )
     args = parser.parse_args()
     try:
-        env_ids = [resolve_env_id(name) for name in args.envs]
+        env_ids = [vegym.resolve_env_id(name) for name in args.envs]
     except ValueError as exc:
         parser.error(str(exc))
     results = measure(env_ids, args.seconds)

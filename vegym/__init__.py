@@ -84,6 +84,14 @@ ENVS: dict[str, dict[str, object]] = {
 the episode length, optional default keyword arguments (``kwargs``) and a one-line description."""
 
 
+def resolve_env_id(name: str) -> str:
+    """The registered id for ``vegym/Name-v0`` or ``Name-v0``; ValueError listing the ids otherwise."""
+    for env_id in ENVS:
+        if name in (env_id, env_id.split("/", 1)[-1]):
+            return env_id
+    raise ValueError(f"unknown env {name!r}; registered: {', '.join(ENVS)}")
+
+
 def _register_all() -> None:
     for env_id, spec in ENVS.items():
         if env_id in registry:
