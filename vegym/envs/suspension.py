@@ -46,7 +46,12 @@ class SuspensionParams(Params):
     accel_scale: float = param(
         3.0, "body acceleration of a full unit of observation and comfort cost (m/s^2)", low=0.0, low_open=True
     )
-    velocity_scale: float = param(1.0, "velocity of a full unit of observation (m/s)", low=0.0, low_open=True)
+    velocity_scale: float = param(
+        0.4,
+        "velocity of a full unit of observation (m/s); a little over travel_limit sqrt(k/m), 0.33 m/s by default",
+        low=0.0,
+        low_open=True,
+    )
     comfort_rms: float = param(0.8, "is_success: largest RMS body acceleration so far (m/s^2)", low=0.0)
     bottom_out_penalty: float = param(1.0, "cost of hitting a bump stop, besides the rest of the episode's", low=0.0)
 
@@ -283,7 +288,9 @@ class SuspensionEnv(VegymEnv[SuspensionParams]):
     ``Box(-1, 1, (4,), float32)``: suspension travel (spring length minus its static length) over
     ``travel_limit``; body velocity v and relative velocity ``v - v_b`` (body minus axle) over
     ``velocity_scale``; the body acceleration of the last step over ``accel_scale``. All clipped to [-1, 1];
-    the travel is inside it until the episode ends.
+    the travel is inside it until the episode ends. With the defaults, over seeds 0-199 under either skyhook law
+    or random actions, the four entries have standard deviations of 0.17-0.29, and the velocities stay below
+    0.32 m/s under the laws and 0.38 m/s under random actions, inside ``velocity_scale`` (0.4 m/s): unclipped.
 
     ## Rewards
     ``comfort``: ``-dt min((a / accel_scale)^2, 1)`` with a the body acceleration over the step (a squared
