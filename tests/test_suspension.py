@@ -219,7 +219,7 @@ def test_bad_parameters_raise_value_error_naming_them(kwargs: dict, name: str) -
 @pytest.mark.parametrize("law", ["on-off", "continuous", "random"])
 def test_observations_are_scaled_near_unit_spread_and_the_velocities_never_clip(law: str) -> None:
     """The docstring's figures over seeds 0-199: each entry's standard deviation 0.17-0.29 (at velocity_scale 1
-    m/s the velocities' was 0.05-0.08), the velocities below 0.32 m/s under the laws (so the continuous law's ratio
+    m/s the velocities' was 0.08-0.10), the velocities below 0.32 m/s under the laws (so the continuous law's ratio
     stays exact) and 0.38 m/s under random actions."""
     env = gym.make_vec(ENV_ID, num_envs=200, vectorization_mode="vector_entry_point")
     p: SuspensionParams = env.unwrapped.params
@@ -231,5 +231,5 @@ def test_observations_are_scaled_near_unit_spread_and_the_velocities_never_clip(
         obs = env.step(controller.predict(obs)[0] if controller else env.action_space.sample())[0]
         seen.append(obs)
     seen = np.concatenate(seen)
-    assert ((0.17 < seen.std(axis=0)) & (seen.std(axis=0) < 0.3)).all(), seen.std(axis=0)
+    assert ((0.17 < seen.std(axis=0)) & (seen.std(axis=0) < 0.29)).all(), seen.std(axis=0)
     assert np.abs(seen[:, 1:3]).max() * p.velocity_scale < (0.38 if controller is None else 0.32)
