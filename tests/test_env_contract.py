@@ -500,7 +500,11 @@ def test_putting_a_state_back_compiles_no_reader_again() -> None:
         env.step(np.zeros(2, np.float32))
         copy.deepcopy(env)
     assert base._compiled.cache_info().misses == compiled
-    assert base.single_action_loader(loader := base.ActionLoader(1, (0,), single=True)) is loader  # nothing to read
+
+
+def test_a_single_env_without_action_numbers_keeps_the_general_loader() -> None:
+    loader = base.ActionLoader(1, (0,), single=True)
+    assert base.single_action_loader(loader) is loader  # the generated code would unpack nothing (a SyntaxError)
 
 
 EPISODE_CONSTANT_ENV_IDS = [
