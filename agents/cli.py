@@ -17,8 +17,9 @@ from rich.table import Table
 from rich.text import Text
 
 import vegym
-from agents.config import ALGOS, CONFIG_DIR, ConfigError, TrainConfig, env_name, load_config
+from agents.config import ALGOS, CONFIG_DIR, ConfigError, TrainConfig, load_config
 from agents.evaluation import EVAL_SEED, REFERENCE_AGENTS, agent_factory, evaluate_agents, run_episode
+from vegym import env_name
 
 console = Console(highlight=False, width=None if sys.stdout.isatty() else 160)
 

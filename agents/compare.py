@@ -20,11 +20,12 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from agents.config import ALGOS, CONFIG_DIR, env_name, load_config, read_yaml
+from agents.config import ALGOS, CONFIG_DIR, load_config, read_yaml
 from agents.evaluation import EVAL_SEED, EvalResult, SeededFactories, agent_factories, evaluate_agents, load_seeded
 from agents.multiseed import seed_configs, train_seeds
 from agents.plots import save_episode_gif, save_score_chart, save_trajectory_plot
 from agents.training import CHECKPOINT_DIR, EVAL_DIR, seed_dir, seed_runs
+from vegym import env_name
 
 PRETRAINED_DIR = Path(__file__).resolve().parent / "pretrained"
 """The shipped learned agents: ``<Env-v0>/<algo>/``."""

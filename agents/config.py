@@ -145,11 +145,6 @@ class TrainConfig:
         return kwargs
 
 
-def env_name(env_id: str) -> str:
-    """``vegym/BouncingBall-v0`` -> ``BouncingBall-v0`` (the directory name of its models)."""
-    return env_id.split("/", 1)[-1]
-
-
 def constructor_hints(cls: type) -> dict[str, Any]:
     """The annotations of ``cls.__init__``'s parameters (``inspect.Parameter.empty`` where there is none)."""
     return {name: p.annotation for name, p in inspect.signature(cls.__init__).parameters.items()}

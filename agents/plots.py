@@ -20,8 +20,8 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle
 
-from agents.config import env_name
 from agents.evaluation import AgentFactory, EvalResult
+from vegym import env_name
 from vegym.envs.projectile import ProjectileTask
 
 MAX_GIF_FRAMES = 100

@@ -84,10 +84,15 @@ ENVS: dict[str, dict[str, object]] = {
 the episode length, optional default keyword arguments (``kwargs``) and a one-line description."""
 
 
+def env_name(env_id: str) -> str:
+    """``vegym/BouncingBall-v0`` -> ``BouncingBall-v0`` (the directory name of its models)."""
+    return env_id.split("/", 1)[-1]
+
+
 def resolve_env_id(name: str) -> str:
     """The registered id for ``vegym/Name-v0`` or ``Name-v0``; ValueError listing the ids otherwise."""
     for env_id in ENVS:
-        if name in (env_id, env_id.split("/", 1)[-1]):
+        if name in (env_id, env_name(env_id)):
             return env_id
     raise ValueError(f"unknown env {name!r}; registered: {', '.join(ENVS)}")
 
