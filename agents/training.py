@@ -195,7 +195,9 @@ def train(
             (out / COMMAND_FILE).write_text(command + "\n")
         model = build_model(config, env, tensorboard_log)
     else:
-        model = config.algo_class.load(source, env=env, tensorboard_log=tensorboard_log)
+        # SB3's load seeds the env and the global generators again from the model's seed: the new segment's
+        # seed, or it would replay the first segment's episodes and random draws
+        model = config.algo_class.load(source, env=env, tensorboard_log=tensorboard_log, seed=config.seed + done)
         if isinstance(model, OffPolicyAlgorithm):
             _restore_replay_buffer(model, config, out, source)
     stopper = StopOnSigint(stop)

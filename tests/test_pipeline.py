@@ -415,6 +415,29 @@ def test_resume_keeps_the_earlier_evaluations(tmp_path: Path) -> None:
     np.testing.assert_array_equal(both["successes"][:2], first["successes"])
 
 
+class _StartProbe(BaseCallback):
+    """Records the first observations of the training env when training starts."""
+
+    def _on_training_start(self) -> None:
+        self.first_obs = self.model._last_obs.copy()
+
+    def _on_step(self) -> bool:
+        return True
+
+
+def test_a_resumed_run_starts_new_episodes_seeded_after_the_steps_done(tmp_path: Path) -> None:
+    entry = "vegym/Projectile-v0:\n  n_timesteps: 64\n  n_envs: 4\n  n_steps: 16\n  batch_size: 64\n  eval_freq: 1e6\n"
+    config = load_config(write_config(tmp_path, entry), "vegym/Projectile-v0")
+    out = tmp_path / "run"
+    first, resumed = _StartProbe(), _StartProbe()
+    train(config, out, progress_bar=False, callbacks=[first])
+    done = saved_timesteps(out / "model.zip")
+    train(resume_config(out, 128), out, resume=True, progress_bar=False, callbacks=[resumed])
+    np.testing.assert_array_equal(first.first_obs, make_env(config, config.seed).reset())
+    np.testing.assert_array_equal(resumed.first_obs, make_env(config, config.seed + done).reset())
+    assert not np.array_equal(resumed.first_obs, first.first_obs)  # not the first segment's episodes again
+
+
 class _BufferProbe(BaseCallback):
     """Records the replay buffer's size and ``learning_starts`` when training starts."""
 

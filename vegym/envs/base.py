@@ -710,9 +710,11 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
 
     NEXT_STEP autoreset: the step after a sub-env terminates or truncates resets it, returning its first
     observation with reward 0 and ``terminated = truncated = False``. Truncation comes from
-    ``max_episode_steps`` (``make_vec`` passes the registered value). The state is updated in place, but for the
-    task's episode constants, which get new arrays when episodes start. No returned array is ever written again:
-    they are fresh or read-only (the infos' views of the episode constants and arrays of constants). With
+    ``max_episode_steps`` (``make_vec`` passes the registered value unless given one). None means no time limit,
+    also when passed to ``make_vec`` explicitly (``gymnasium.make`` reads None as the registered limit, -1 as
+    none). The state is updated in place, but for the task's episode constants, which get new arrays when
+    episodes start. No returned array is ever written again: they are fresh or read-only (the infos' views of the
+    episode constants and arrays of constants). With
     ``render_mode="rgb_array"`` each sub-env has the single env's renderer, fed after every step (a snapshot of
     its row: slow, for looking, not for training), and ``render()`` returns their frames.
     """
