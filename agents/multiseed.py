@@ -3,17 +3,20 @@
 Each seed trains into its own run directory ``<out>/seed_<k>/`` (:func:`agents.training.seed_dir`) exactly as a
 single ``vegym train --seed k`` would, and reports its progress to the parent, which shows one progress line per
 seed. A seed that fails is reported with its error and the others go on. Ctrl-C reaches every worker (same
-process group) or, sent to the parent alone, is passed on to them: each saves its model at the next step, as a
-single run does; no seed that has not started is started afterwards.
+process group) or, sent to the parent alone (SIGINT or SIGTERM), is passed on to them: each saves its model at the
+next step, as a single run does; no seed that has not started is started afterwards.
 """
 
 from __future__ import annotations
 
+import contextlib
 import multiprocessing as mp
 import queue
+import signal
+import threading
 import time
 import traceback
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from multiprocessing.process import BaseProcess
 from pathlib import Path
@@ -24,7 +27,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from stable_baselines3.common.callbacks import BaseCallback
 
 from agents.config import TrainConfig, with_overrides
-from agents.training import TrainResult, latest_model, resume_config, seed_dir, train
+from agents.training import INTERRUPTS, REPEAT_WINDOW_S, TrainResult, latest_model, resume_config, seed_dir, train
 
 REPORT_EVERY_S = 1.0
 """Seconds between a worker's progress reports."""
@@ -80,6 +83,7 @@ def _train_seed(
             command=command,
             callbacks=[_ReportProgress(config.seed, channel)],
             stop=stop,
+            verbose=False,  # the parent shows one progress line per seed
         )
         channel.put(("done", config.seed, result))
     except KeyboardInterrupt:
@@ -128,14 +132,17 @@ def train_seeds(
     pending = list(configs)
     running: dict[int, BaseProcess] = {}
     outcomes: dict[int, SeedOutcome] = {}
-    stopping = False
-    with Progress(
-        TextColumn("{task.description}"),
-        BarColumn(),
-        MofNCompleteColumn(),
-        TimeElapsedColumn(),
-        disable=not progress_bar,
-    ) as progress:
+    stopping, stopped_at = False, 0.0
+    with (
+        _interrupts_raise(),
+        Progress(
+            TextColumn("{task.description}"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TimeElapsedColumn(),
+            disable=not progress_bar,
+        ) as progress,
+    ):
         bars = {s: progress.add_task(f"seed {s}", total=configs[s].n_timesteps, start=False) for s in configs}
         while running or (pending and not stopping):
             try:
@@ -152,13 +159,34 @@ def train_seeds(
                 _collect(channel, running, outcomes, progress, bars, log)
             except KeyboardInterrupt:
                 if stopping:
-                    raise
-                stopping = True
+                    if time.monotonic() - stopped_at > REPEAT_WINDOW_S:
+                        raise
+                    continue
+                stopping, stopped_at = True, time.monotonic()
                 stop.set()  # for workers that the Ctrl-C did not reach (a signal to this process alone)
                 log("interrupted: the running seeds save their models; Ctrl-C again to abort")
         for seed in pending:
             outcomes[seed] = SeedOutcome(seed, error=NOT_STARTED)
     return [outcomes[s] for s in configs]
+
+
+@contextlib.contextmanager
+def _interrupts_raise() -> Iterator[None]:
+    """Within the block, SIGINT and SIGTERM raise KeyboardInterrupt in the main thread: also where SIGINT came in
+    ignored (a background job of a script) and where SIGTERM would end the parent without its workers."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def interrupt(signum: int, frame: Any) -> None:
+        raise KeyboardInterrupt
+
+    previous = {signum: signal.signal(signum, interrupt) for signum in INTERRUPTS}
+    try:
+        yield
+    finally:
+        for signum, handler in previous.items():
+            signal.signal(signum, signal.SIG_DFL if handler is None else handler)
 
 
 def _collect(

@@ -11,15 +11,17 @@ below one agent directory (:func:`seed_dir`, :func:`seed_runs`; trained in paral
 
 from __future__ import annotations
 
+import contextlib
 import importlib.util
 import inspect
 import json
+import os
 import re
 import signal
 import threading
 import time
 import zipfile
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -110,33 +112,61 @@ def latest_model(run_dir: Path) -> Path | None:
     return max(candidates, key=saved_timesteps, default=None)
 
 
-class StopOnSigint(BaseCallback):
-    """Turns the first Ctrl-C during ``learn`` into a clean stop at the next env step (a second one aborts); also
-    stops there once ``stop`` (an event, e.g. a parent process's) is set."""
+INTERRUPTS = (signal.SIGINT, signal.SIGTERM)
+"""The signals that stop a training run cleanly: Ctrl-C, and a scheduler's or ``kill``'s default."""
+REPEAT_WINDOW_S = 0.5
+"""A second interrupt this soon after the first is the same one delivered twice (``timeout -s INT`` signals the
+process and then its process group), not a request to abort."""
+
+
+class StopOnInterrupt(BaseCallback):
+    """Turns the first SIGINT (Ctrl-C) or SIGTERM within :meth:`catching` into a clean stop at the next env step; a
+    later one aborts (KeyboardInterrupt). Also stops there once ``stop`` (an event, e.g. a parent process's) is set."""
 
     def __init__(self, stop: Any = None) -> None:
         super().__init__()
         self.interrupted = False
         self._stop = stop
-        self._previous: Any = None
+        self._first_at: float | None = None
 
-    def _on_training_start(self) -> None:
-        if threading.current_thread() is threading.main_thread():
-            self._previous = signal.signal(signal.SIGINT, self._handle)
+    @contextlib.contextmanager
+    def catching(self) -> Iterator[None]:
+        """Catch the interrupts (in the main thread only, where Python runs signal handlers) until the block ends:
+        around the training and the saves after it, so that an interrupt never cuts a save short unasked."""
+        if threading.current_thread() is not threading.main_thread():
+            yield
+            return
+        previous = {signum: signal.signal(signum, self._handle) for signum in INTERRUPTS}
+        try:
+            yield
+        finally:
+            for signum, handler in previous.items():
+                signal.signal(signum, signal.SIG_DFL if handler is None else handler)
 
     def _handle(self, signum: int, frame: Any) -> None:
-        self.interrupted = True
-        signal.signal(signal.SIGINT, self._previous)
+        now = time.monotonic()
+        if self._first_at is None:
+            self._first_at, self.interrupted = now, True
+        elif now - self._first_at > REPEAT_WINDOW_S:
+            raise KeyboardInterrupt
 
     def _on_step(self) -> bool:
         if self._stop is not None and self._stop.is_set():
             self.interrupted = True
         return not self.interrupted
 
-    def _on_training_end(self) -> None:
-        if self._previous is not None:
-            signal.signal(signal.SIGINT, self._previous)
-            self._previous = None
+
+@contextlib.contextmanager
+def _replacing(path: Path) -> Iterator[Path]:
+    """A temporary path beside ``path`` (same suffix, which SB3's savers expect) to write, moved onto ``path`` once
+    the block ends without error and removed if it raises: ``path`` holds the old file or the new one, never half
+    of one (an abort during a save leaves the last complete model)."""
+    partial = path.with_name(f".{path.stem}.partial{path.suffix}")
+    try:
+        yield partial
+        os.replace(partial, path)
+    finally:
+        partial.unlink(missing_ok=True)
 
 
 @dataclass(frozen=True)
@@ -162,11 +192,12 @@ def train(
     command: str | None = None,
     callbacks: Sequence[BaseCallback] = (),
     stop: Any = None,
+    verbose: bool = True,
 ) -> TrainResult:
     """Train ``config`` into the run directory ``out`` (see the module docstring); ``resume`` continues it.
 
     ``callbacks`` run beside the checkpoint, evaluation and Ctrl-C callbacks (progress reports, pruning); setting
-    the event ``stop`` stops the training as Ctrl-C does.
+    the event ``stop`` stops the training as Ctrl-C does; ``verbose`` prints SB3's report of each evaluation.
     """
     out = Path(out)
     start = time.perf_counter()
@@ -200,14 +231,14 @@ def train(
         model = config.algo_class.load(source, env=env, tensorboard_log=tensorboard_log, seed=config.seed + done)
         if isinstance(model, OffPolicyAlgorithm):
             _restore_replay_buffer(model, config, out, source)
-    stopper = StopOnSigint(stop)
+    stopper = StopOnInterrupt(stop)
     evaluation = EvalCallback(
         eval_env,
         n_eval_episodes=config.n_eval_episodes,
         eval_freq=max(config.eval_freq // config.n_envs, 1),
         log_path=str(out / EVAL_DIR),
         deterministic=True,
-        verbose=1,
+        verbose=int(verbose),
     )
     _continue_evaluations(evaluation, out / EVAL_DIR / EVAL_FILE, done)
     all_callbacks = [
@@ -222,25 +253,30 @@ def train(
         *callbacks,
     ]
     remaining = config.n_timesteps - done
-    if remaining > 0:
-        model.learn(
-            remaining,
-            callback=all_callbacks,
-            progress_bar=progress_bar and _progress_bar_available(),
-            reset_num_timesteps=source is None,
-            tb_log_name=config.algo,
-        )
-    model.save(out / MODEL_FILE)
-    if isinstance(env, VecNormalize):
-        env.save(str(out / NORMALIZE_FILE))
-    if isinstance(model, OffPolicyAlgorithm):
-        if stopper.interrupted:
-            model.save_replay_buffer(out / REPLAY_FILE)
-        else:
-            (out / REPLAY_FILE).unlink(missing_ok=True)
+    with stopper.catching():
+        if remaining > 0:
+            model.learn(
+                remaining,
+                callback=all_callbacks,
+                progress_bar=progress_bar and _progress_bar_available(),
+                reset_num_timesteps=source is None,
+                tb_log_name=config.algo,
+            )
+        with _replacing(out / MODEL_FILE) as path:
+            model.save(path)
+        if isinstance(env, VecNormalize):
+            with _replacing(out / NORMALIZE_FILE) as path:
+                env.save(str(path))
+        if isinstance(model, OffPolicyAlgorithm):
+            if stopper.interrupted:
+                with _replacing(out / REPLAY_FILE) as path:
+                    model.save_replay_buffer(path)
+            else:
+                (out / REPLAY_FILE).unlink(missing_ok=True)
+        result = _record(out, model.num_timesteps, stopper.interrupted, time.perf_counter() - start)
     env.close()
     eval_env.close()
-    return _record(out, model.num_timesteps, stopper.interrupted, time.perf_counter() - start)
+    return result
 
 
 def _restore_replay_buffer(model: OffPolicyAlgorithm, config: TrainConfig, out: Path, source: Path) -> None:
@@ -274,7 +310,8 @@ def _record(out: Path, timesteps: int, interrupted: bool, seconds: float) -> Tra
     previous = json.loads(stats_path.read_text()) if stats_path.exists() else {"wall_time_s": 0.0}
     total = float(previous["wall_time_s"]) + seconds
     stats = {"timesteps": timesteps, "wall_time_s": round(total, 2), "interrupted": interrupted}
-    stats_path.write_text(json.dumps(stats, indent=2) + "\n")
+    with _replacing(stats_path) as path:
+        path.write_text(json.dumps(stats, indent=2) + "\n")
     return TrainResult(out / MODEL_FILE, timesteps, interrupted, total)
 
 

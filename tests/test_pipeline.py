@@ -369,7 +369,12 @@ def test_train_cli_tiny_budget_produces_a_loadable_model(tmp_path: Path) -> None
     assert not (out / "seed_1").exists()
 
 
-def test_sigint_saves_a_loadable_model_and_resume_continues(tmp_path: Path) -> None:
+@pytest.mark.parametrize(
+    "signals", [(signal.SIGINT, signal.SIGINT), (signal.SIGTERM,)], ids=["sigint_twice", "sigterm"]
+)
+def test_an_interrupt_saves_a_loadable_model_and_resume_continues(tmp_path: Path, signals: tuple[int, ...]) -> None:
+    """SIGINT (Ctrl-C) or SIGTERM stops the run at the next step and saves it; a second SIGINT right after the first
+    (``timeout -s INT`` signals the process, then its group) is the same interrupt, not an abort."""
     config = write_config(
         tmp_path,
         "vegym/BouncingBall-v0:\n  n_timesteps: 1e7\n  n_envs: 2\n  n_steps: 64\n  batch_size: 64\n"
@@ -382,7 +387,9 @@ def test_sigint_saves_a_loadable_model_and_resume_continues(tmp_path: Path) -> N
     while not list((out / "checkpoints").glob("model_*_steps.zip")) and time.monotonic() < deadline:
         time.sleep(0.2)
     time.sleep(0.5)  # let the checkpoint's files be complete
-    proc.send_signal(signal.SIGINT)
+    for signum in signals:
+        proc.send_signal(signum)
+        time.sleep(0.01)
     stdout, stderr = proc.communicate(timeout=60)
     assert proc.returncode == 130, stderr
     assert "Traceback" not in stderr and "interrupted at" in stdout
@@ -413,6 +420,24 @@ def test_resume_keeps_the_earlier_evaluations(tmp_path: Path) -> None:
     assert both["timesteps"].tolist() == [64, 128, 192, 256]
     np.testing.assert_array_equal(both["results"][:2], first["results"])
     np.testing.assert_array_equal(both["successes"][:2], first["successes"])
+
+
+def test_an_abort_while_saving_leaves_the_last_complete_model(tmp_path: Path, monkeypatch: Any) -> None:
+    entry = "vegym/Projectile-v0:\n  n_timesteps: 64\n  n_envs: 4\n  n_steps: 16\n  batch_size: 64\n  eval_freq: 1e6\n"
+    config = load_config(write_config(tmp_path, entry), "vegym/Projectile-v0")
+    out = tmp_path / "run"
+    train(config, out, progress_bar=False)
+    saved = (out / "model.zip").read_bytes()
+
+    def cut_short(model: Any, path: Any, *args: Any, **kwargs: Any) -> None:
+        Path(path).write_bytes(saved[:100])  # half written when the second Ctrl-C lands
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(type(build_model(config, make_env(config, 0))), "save", cut_short)
+    with pytest.raises(KeyboardInterrupt):
+        train(resume_config(out, 128), out, resume=True, progress_bar=False)
+    assert (out / "model.zip").read_bytes() == saved
+    assert sorted(p.name for p in out.iterdir() if p.name.startswith(".")) == []  # no partial file left
 
 
 class _StartProbe(BaseCallback):
@@ -461,7 +486,14 @@ def test_resuming_a_finished_off_policy_run_refills_its_buffer_before_updating(t
     assert SAC.load(out / "model.zip")._n_updates == updates  # 90 steps into an empty buffer: no update yet
 
 
-def test_sigint_to_the_parent_alone_stops_the_seeds_and_says_how_to_go_on(tmp_path: Path) -> None:
+def _ignore_sigint() -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # as for a background job of a script
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["sigint_come_in_ignored", "sigterm"])
+def test_an_interrupt_to_the_parent_alone_stops_the_seeds_and_says_how_to_go_on(tmp_path: Path, signum: int) -> None:
+    """The parent passes SIGINT or SIGTERM on to its workers, also where it started with SIGINT ignored (a script's
+    background job); the workers print no evaluation reports of their own between the parent's lines."""
     config = write_config(
         tmp_path, "vegym/BouncingBall-v0:\n  n_timesteps: 1e7\n  n_steps: 64\n  batch_size: 64\n  save_freq: 256\n"
     )
@@ -472,13 +504,15 @@ def test_sigint_to_the_parent_alone_stops_the_seeds_and_says_how_to_go_on(tmp_pa
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        preexec_fn=_ignore_sigint,
     )
     deadline = time.monotonic() + 120
     while not list((out / "seed_0" / "checkpoints").glob("model_*_steps.zip")) and time.monotonic() < deadline:
         time.sleep(0.2)
-    proc.send_signal(signal.SIGINT)  # to the parent's pid only: the worker hears of it from the parent
+    proc.send_signal(signum)  # to the parent's pid only: the worker hears of it from the parent
     stdout, stderr = proc.communicate(timeout=60)
     assert proc.returncode == 130, stdout + stderr
+    assert "Eval num_timesteps" not in stdout
     assert "seeds [1] did not start" in stdout and "failed" not in stdout
     assert f"continue with: vegym train --env BouncingBall-v0 --algo ppo --out {out} --resume --seeds 0" in stdout
     assert (
