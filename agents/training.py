@@ -16,10 +16,12 @@ import importlib.util
 import inspect
 import json
 import os
+import pickle
 import re
 import signal
 import threading
 import time
+import warnings
 import zipfile
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
@@ -104,12 +106,45 @@ def seed_runs(agent_dir: Path) -> dict[int, Path]:
     return dict(sorted(runs.items()))
 
 
-def latest_model(run_dir: Path) -> Path | None:
-    """The model of ``run_dir`` with the most training steps (checkpoints and ``model.zip``), or None."""
+def _models(run_dir: Path) -> list[Path]:
+    """The models of ``run_dir`` (checkpoints and ``model.zip``), the most training steps first; a file whose step
+    count cannot be read comes last."""
     candidates = sorted((run_dir / CHECKPOINT_DIR).glob(f"{CHECKPOINT_PREFIX}_*_steps.zip"))
     if (run_dir / MODEL_FILE).exists():
         candidates.append(run_dir / MODEL_FILE)
-    return max(candidates, key=saved_timesteps, default=None)
+
+    def steps(path: Path) -> int:
+        try:
+            return saved_timesteps(path)
+        except (OSError, ValueError, KeyError, zipfile.BadZipFile):
+            return -1
+
+    return sorted(candidates, key=steps, reverse=True)
+
+
+def latest_model(run_dir: Path) -> Path | None:
+    """The model of ``run_dir`` with the most training steps (checkpoints and ``model.zip``), or None."""
+    return next(iter(_models(run_dir)), None)
+
+
+def _resume_source(run_dir: Path, config: TrainConfig) -> Path:
+    """The model of ``run_dir`` with the most training steps that loads as ``config``'s algorithm, with its
+    normalisation statistics if the config normalises: a checkpoint that an abort cut short (SB3 writes them in
+    place) is skipped with a warning. ValueError if none loads."""
+    skipped = []
+    for path in _models(run_dir):
+        try:
+            config.algo_class.load(path, device="cpu")
+            if config.normalize_kwargs() is not None:
+                with open(normalize_path(path), "rb") as stats:
+                    pickle.load(stats)
+        except Exception as error:  # anything a cut-short file raises: zip, torch, pickle, missing files
+            skipped.append(f"{path} ({type(error).__name__}: {error})")
+            continue
+        for line in skipped:
+            warnings.warn(f"--resume: skipping {line}; resuming from {path}", stacklevel=2)
+        return path
+    raise ValueError(f"--resume: no model in {run_dir} loads: {'; '.join(skipped)}")
 
 
 INTERRUPTS = (signal.SIGINT, signal.SIGTERM)
@@ -209,14 +244,14 @@ def train(
     if not resume and any(out.glob(f"{SEED_DIR_PREFIX}*/{MODEL_FILE}")):
         raise ValueError(f"{out} holds seed_<k>/ runs; train one seed into it with --seeds K, or choose another --out")
     out.mkdir(parents=True, exist_ok=True)
+    normalize = config.normalize_kwargs()
+    if source is not None:
+        source = _resume_source(out, config)
     done = 0 if source is None else saved_timesteps(source)
     env = make_env(config, config.seed + done)
     eval_env = make_env(config, config.seed + EVAL_SEED_OFFSET, n_envs=1)
-    normalize = config.normalize_kwargs()
     if normalize is not None:
         stats = None if source is None else normalize_path(source)
-        if stats is not None and not stats.is_file():
-            raise ValueError(f"--resume: {source} needs its normalisation statistics {stats}, which are missing")
         env = VecNormalize.load(str(stats), env) if stats is not None else VecNormalize(env, **normalize)
         eval_env = VecNormalize(eval_env, training=False, norm_reward=False)
     tensorboard_log = str(out / "tb") if importlib.util.find_spec("tensorboard") is not None else None

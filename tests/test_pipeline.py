@@ -7,6 +7,7 @@ import signal
 import subprocess
 import sys
 import time
+import zipfile
 from pathlib import Path
 from typing import Any
 
@@ -438,6 +439,23 @@ def test_an_abort_while_saving_leaves_the_last_complete_model(tmp_path: Path, mo
         train(resume_config(out, 128), out, resume=True, progress_bar=False)
     assert (out / "model.zip").read_bytes() == saved
     assert sorted(p.name for p in out.iterdir() if p.name.startswith(".")) == []  # no partial file left
+
+
+def test_resume_skips_a_model_cut_short_and_goes_on_from_the_newest_that_reads(tmp_path: Path) -> None:
+    entry = "vegym/Projectile-v0:\n  n_timesteps: 64\n  n_envs: 4\n  n_steps: 16\n  batch_size: 64\n"
+    config = load_config(write_config(tmp_path, entry + "  eval_freq: 1e6\n  save_freq: 32\n"), "vegym/Projectile-v0")
+    out = tmp_path / "run"
+    train(config, out, progress_bar=False)
+    (out / "model.zip").unlink()  # an abort during the checkpoint of step 64, before the final save
+    newest = out / "checkpoints" / "model_64_steps.zip"
+    with zipfile.ZipFile(newest) as whole:
+        data = whole.read("data")
+    with zipfile.ZipFile(newest, "w") as cut:  # as an abort inside SB3's save leaves it: the data only
+        cut.writestr("data", data)
+    with pytest.warns(UserWarning, match=r"skipping .*model_64_steps\.zip .*resuming from .*model_32_steps\.zip"):
+        train(resume_config(out, 128), out, resume=True, progress_bar=False)
+    assert saved_timesteps(out / "model.zip") >= 128  # 32 + whole rollouts of 64
+    load_learned(out / "model.zip")
 
 
 class _StartProbe(BaseCallback):
