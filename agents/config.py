@@ -387,7 +387,7 @@ def env_params(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
     parameter, ValueError for a value out of range), without making the env."""
     spec = vegym.ENVS[env_id]
     registered = dict(gym.spec(env_id).kwargs)
-    return load_object(f"{spec['module']}:{spec['env']}").task_cls.params_cls(**{**registered, **env_kwargs})
+    return load_object(f"{spec['module']}:{spec['env']}").task_cls.params_cls.of(**{**registered, **env_kwargs})
 
 
 class _UniqueKeyLoader(yaml.SafeLoader):

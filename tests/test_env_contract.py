@@ -9,6 +9,7 @@ import math
 import os
 import pickle
 import platform
+import re
 import signal
 import subprocess
 import sys
@@ -710,11 +711,16 @@ def test_non_finite_and_out_of_range_actions_raise(env_id: str) -> None:
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)
-def test_unknown_keyword_raises_type_error(env_id: str) -> None:
-    with pytest.raises(TypeError):
+def test_unknown_keyword_raises_a_type_error_listing_the_parameters(env_id: str) -> None:
+    names = [f.name for f in dataclasses.fields(gym.make(env_id).unwrapped.params)]
+    listed = rf"has no parameter 'no_such_parameter'; its parameters: {re.escape(', '.join(names))}"
+    with pytest.raises(TypeError, match=listed):
         gym.make(env_id, no_such_parameter=1.0)
-    with pytest.raises(TypeError):
+    with pytest.raises(TypeError, match=listed):
         gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point", no_such_parameter=1.0)
+    misspelt = names[0] + names[0][-1]
+    with pytest.raises(TypeError, match=rf"has no parameter {misspelt!r} \(did you mean {names[0]!r}\?\)"):
+        gym.make(env_id, **{misspelt: 1.0})
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)

@@ -648,7 +648,9 @@ def test_compare_without_learned_agents_says_so(tmp_path: Path) -> None:
     assert main(argv) == 0
     records = json.loads((out / "compare.json").read_text())
     assert [r["agent"] for r in records] == ["analytic", "random"]
-    assert "Projectile-v0: no learned agent" in (out / "compare.md").read_text()
+    assert "Projectile-v0: no learned ppo/sac/td3 agent" in (out / "compare.md").read_text()
+    assert main([*argv, "--algos", "sac"]) == 0
+    assert "Projectile-v0: no learned sac agent" in (out / "compare.md").read_text()
 
 
 @pytest.mark.parametrize("command", ["list", "train", "evaluate", "compare", "sweep", "demo"])

@@ -9,6 +9,7 @@ Derived quantities are properties, never stored fields, so they cannot go stale.
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import math
 import numbers
 import typing
@@ -104,6 +105,18 @@ class Params:
 
     def validate(self) -> None:
         """Cross-field checks; the default has none."""
+
+    @classmethod
+    def of(cls, **values: Any) -> Params:
+        """The parameter set of ``values`` (keyword arguments by field name, the rest at their defaults); a name
+        that is no field raises ``TypeError`` listing the fields (the closest first, if one is close)."""
+        names = [f.name for f in dataclasses.fields(cls)]  # type: ignore[arg-type]
+        unknown = [name for name in values if name not in names]
+        if unknown:
+            close = difflib.get_close_matches(unknown[0], names, n=1)
+            hint = f" (did you mean {close[0]!r}?)" if close else ""
+            raise TypeError(f"{cls.__name__} has no parameter {unknown[0]!r}{hint}; its parameters: {', '.join(names)}")
+        return cls(**values)
 
     def as_dict(self) -> dict[str, Any]:
         """The parameters as plain keyword arguments."""

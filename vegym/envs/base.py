@@ -511,7 +511,7 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human", "rgb_array"], "render_fps": 1}
 
     def __init__(self, render_mode: str | None = None, **params: Any) -> None:
-        self.task = self.task_cls(self.task_cls.params_cls(**params))
+        self.task = self.task_cls(self.task_cls.params_cls.of(**params))
         self.params: P = self.task.params  # type: ignore[assignment]
         self.metadata = {**type(self).metadata, "render_fps": self.task.control_rate}
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
@@ -732,7 +732,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
                 f"render_mode={render_mode!r} is not one of {self.metadata['render_modes']} (a vector env returns its "
                 "sub-envs' frames; a window shows a single env: gymnasium.make(id, render_mode='human'))"
             )
-        self.task = self.task_cls(self.task_cls.params_cls(**params))
+        self.task = self.task_cls(self.task_cls.params_cls.of(**params))
         planned = self.task.planned_steps
         if planned is not None and (max_episode_steps is None or max_episode_steps > planned):
             self.task.warn_unplanned_length(f"{type(self).__name__}: max_episode_steps={max_episode_steps}")
