@@ -284,6 +284,35 @@ def _literal(node: ast.expr, where: str, names_allowed: bool) -> Any:
         ) from None
 
 
+RUN_SETTINGS = ("seed", "eval_freq", "n_eval_episodes", "save_freq")
+"""vegym's keys of an entry that say how a run goes, not what it trains; RL Zoo refuses them."""
+
+
+def zoo_entry(entry: Mapping[str, Any]) -> dict[str, Any]:
+    """An entry as :meth:`TrainConfig.to_entry` writes it, in the form of the committed ``configs/<algo>.yml``
+    entries, which RL Zoo reads as well: without ``env_id``, ``algo`` and the :data:`RUN_SETTINGS`, the noise only
+    where there is some, an empty ``env_kwargs`` or ``policy_kwargs`` left out, ``policy_kwargs`` and a
+    ``normalize`` dict as RL Zoo's ``dict(...)`` strings (torch classes unquoted) and tuples as lists."""
+    noisy = entry.get("noise_type") is not None
+    out: dict[str, Any] = {}
+    for key, value in entry.items():
+        if key in ("env_id", "algo", *RUN_SETTINGS) or (key in ("noise_type", "noise_std") and not noisy):
+            continue
+        if key in ("env_kwargs", "policy_kwargs") and not value:
+            continue
+        if key == "policy_kwargs" or (key == "normalize" and isinstance(value, Mapping)):
+            value = _dict_text(value)
+        out[key] = list(value) if isinstance(value, tuple) else value
+    return out
+
+
+def _dict_text(values: Mapping[str, Any]) -> str:
+    """``values`` as RL Zoo's ``dict(k=v, ...)`` string; a torch class name (``nn.Tanh``) unquoted, as RL Zoo
+    evaluates it (and :func:`parse_dict` reads it)."""
+    items = (f"{k}={v if k in NAMED_CLASSES else repr(v)}" for k, v in values.items())
+    return f"dict({', '.join(items)})"
+
+
 def parse_dict(text: str, where: str) -> dict[str, Any]:
     """An RL-Zoo dict string, ``"dict(a=1, b=[2, 3])"`` or ``"{'a': 1}"``, parsed with ast (never evaluated)."""
     try:

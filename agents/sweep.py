@@ -45,7 +45,7 @@ from sqlalchemy import create_engine, text
 from sqlalchemy.engine import make_url
 from stable_baselines3.common.callbacks import BaseCallback
 
-from agents.config import CONFIG_DIR, TrainConfig, env_params, load_config, with_overrides
+from agents.config import CONFIG_DIR, TrainConfig, env_params, load_config, with_overrides, zoo_entry
 from agents.evaluation import BASELINES, LearnedAgent, evaluate, load_learned, normalized, run_episode
 from agents.training import train
 
@@ -494,10 +494,9 @@ def sweep(
 
 
 def best_config(study: optuna.Study, settings: SweepSettings) -> dict[str, Any]:
-    """The best trial's config as a ``configs/<algo>.yml`` block: ``{env_id: entry}``."""
-    best = study.best_trial
-    entry = {k: v for k, v in best.user_attrs["config"].items() if k != "seed"}
-    return {settings.env_id: entry}
+    """The best trial's config as a ``configs/<algo>.yml`` block, ``{env_id: entry}``, in the committed entries'
+    form (:func:`~agents.config.zoo_entry`), which RL Zoo reads as well."""
+    return {settings.env_id: zoo_entry(study.best_trial.user_attrs["config"])}
 
 
 def write_best_config(study: optuna.Study, settings: SweepSettings, path: Path) -> str:

@@ -26,6 +26,7 @@ from agents.cli import main
 from agents.config import (
     ALGOS,
     CONFIG_DIR,
+    RUN_SETTINGS,
     SCHEDULE_PREFIX,
     ConfigError,
     LinearDecay,
@@ -33,6 +34,7 @@ from agents.config import (
     load_configs,
     load_resolved,
     save_resolved,
+    zoo_entry,
 )
 from agents.evaluation import EVAL_SEED, agent_factory, evaluate, evaluate_agents, load_learned
 from agents.multiseed import SeedOutcome
@@ -84,12 +86,37 @@ def test_committed_configs_read_as_rl_zoo_reads_them(path: Path) -> None:
     refuses vegym's own (checked with rl_zoo3 2.9.2: all 19 entries build their models)."""
     import yaml
 
-    vegym_only = {"seed", "eval_freq", "n_eval_episodes", "save_freq"}
+    vegym_only = set(RUN_SETTINGS)
     for env_id, entry in yaml.safe_load(path.read_text()).items():
         assert isinstance(entry["n_timesteps"], (int, float)), env_id
         rate = entry.get("learning_rate", 3e-4)
         assert isinstance(rate, float) or (rate.startswith(SCHEDULE_PREFIX) and float(rate.split("_")[1]) > 0), env_id
         assert not vegym_only & set(entry), env_id
+
+
+@pytest.mark.parametrize(("path", "env_id"), COMMITTED, ids=[f"{p.stem}-{e}" for p, e in COMMITTED])
+def test_a_config_written_as_a_committed_entry_loads_back_unchanged(tmp_path: Path, path: Path, env_id: str) -> None:
+    """The form of a sweep's best block (``zoo_entry``): RL Zoo's keys only, as the committed entries."""
+    import yaml
+
+    config = load_config(path, env_id)
+    entry = zoo_entry(config.to_entry())
+    noise = () if config.noise_type is not None else ("noise_type", "noise_std")
+    assert not ({"env_id", "algo", *noise, *RUN_SETTINGS} & set(entry))
+    assert isinstance(entry["policy_kwargs"], str) and entry["policy_kwargs"].startswith("dict(")
+    assert load_config(write_config(tmp_path, yaml.safe_dump({env_id: entry}), path.name), env_id) == config
+
+
+def test_a_committed_entry_keeps_noise_classes_and_tuples_in_rl_zoo_form() -> None:
+    entry = {
+        "env_id": "vegym/Projectile-v0", "algo": "td3", "seed": 3, "eval_freq": 500, "noise_type": "normal",
+        "noise_std": 0.2, "env_kwargs": {}, "normalize": {"norm_obs": True}, "train_freq": (1, "episode"),
+        "policy_kwargs": {"net_arch": {"pi": [32], "qf": [64]}, "activation_fn": "nn.ReLU"},
+    }  # fmt: skip
+    assert zoo_entry(entry) == {
+        "noise_type": "normal", "noise_std": 0.2, "normalize": "dict(norm_obs=True)", "train_freq": [1, "episode"],
+        "policy_kwargs": "dict(net_arch={'pi': [32], 'qf': [64]}, activation_fn=nn.ReLU)",
+    }  # fmt: skip
 
 
 def test_resolved_config_round_trips(tmp_path: Path) -> None:
