@@ -9,14 +9,11 @@ next step, as a single run does; no seed that has not started is started afterwa
 
 from __future__ import annotations
 
-import contextlib
 import multiprocessing as mp
 import queue
-import signal
-import threading
 import time
 import traceback
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from multiprocessing.process import BaseProcess
 from pathlib import Path
@@ -27,7 +24,15 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from stable_baselines3.common.callbacks import BaseCallback
 
 from agents.config import TrainConfig, with_overrides
-from agents.training import INTERRUPTS, REPEAT_WINDOW_S, TrainResult, latest_model, resume_config, seed_dir, train
+from agents.training import (
+    REPEAT_WINDOW_S,
+    TrainResult,
+    interrupts_handled,
+    latest_model,
+    resume_config,
+    seed_dir,
+    train,
+)
 
 REPORT_EVERY_S = 1.0
 """Seconds between a worker's progress reports."""
@@ -134,7 +139,7 @@ def train_seeds(
     outcomes: dict[int, SeedOutcome] = {}
     stopping, stopped_at = False, 0.0
     with (
-        _interrupts_raise(),
+        interrupts_handled(_raise_keyboard_interrupt),
         Progress(
             TextColumn("{task.description}"),
             BarColumn(),
@@ -170,23 +175,10 @@ def train_seeds(
     return [outcomes[s] for s in configs]
 
 
-@contextlib.contextmanager
-def _interrupts_raise() -> Iterator[None]:
-    """Within the block, SIGINT and SIGTERM raise KeyboardInterrupt in the main thread: also where SIGINT came in
-    ignored (a background job of a script) and where SIGTERM would end the parent without its workers."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-
-    def interrupt(signum: int, frame: Any) -> None:
-        raise KeyboardInterrupt
-
-    previous = {signum: signal.signal(signum, interrupt) for signum in INTERRUPTS}
-    try:
-        yield
-    finally:
-        for signum, handler in previous.items():
-            signal.signal(signum, signal.SIG_DFL if handler is None else handler)
+def _raise_keyboard_interrupt(signum: int, frame: Any) -> None:
+    """Signal handler: SIGINT or SIGTERM as Ctrl-C, also where SIGINT came in ignored (a background job of a
+    script) and where SIGTERM would end the parent without its workers."""
+    raise KeyboardInterrupt
 
 
 def _collect(

@@ -23,7 +23,7 @@ import threading
 import time
 import warnings
 import zipfile
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -154,6 +154,21 @@ REPEAT_WINDOW_S = 0.5
 process and then its process group), not a request to abort."""
 
 
+@contextlib.contextmanager
+def interrupts_handled(handler: Callable[[int, Any], None]) -> Iterator[None]:
+    """``handler`` for the :data:`INTERRUPTS` until the block ends, the previous handlers after; in the main thread
+    only, where Python runs signal handlers (elsewhere nothing changes)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = {signum: signal.signal(signum, handler) for signum in INTERRUPTS}
+    try:
+        yield
+    finally:
+        for signum, before in previous.items():
+            signal.signal(signum, signal.SIG_DFL if before is None else before)
+
+
 class StopOnInterrupt(BaseCallback):
     """Turns the first SIGINT (Ctrl-C) or SIGTERM within :meth:`catching` into a clean stop at the next env step; a
     later one aborts (KeyboardInterrupt). Also stops there once ``stop`` (an event, e.g. a parent process's) is set."""
@@ -164,19 +179,10 @@ class StopOnInterrupt(BaseCallback):
         self._stop = stop
         self._first_at: float | None = None
 
-    @contextlib.contextmanager
-    def catching(self) -> Iterator[None]:
-        """Catch the interrupts (in the main thread only, where Python runs signal handlers) until the block ends:
-        around the training and the saves after it, so that an interrupt never cuts a save short unasked."""
-        if threading.current_thread() is not threading.main_thread():
-            yield
-            return
-        previous = {signum: signal.signal(signum, self._handle) for signum in INTERRUPTS}
-        try:
-            yield
-        finally:
-            for signum, handler in previous.items():
-                signal.signal(signum, signal.SIG_DFL if handler is None else handler)
+    def catching(self) -> contextlib.AbstractContextManager[None]:
+        """Catch the interrupts until the block ends: around the training and the saves after it, so that an
+        interrupt never cuts a save short unasked."""
+        return interrupts_handled(self._handle)
 
     def _handle(self, signum: int, frame: Any) -> None:
         now = time.monotonic()
