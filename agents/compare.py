@@ -136,8 +136,7 @@ def _missing_note(env_id: str, models_dir: Path, algos: Sequence[str]) -> str:
         how = f"train one: `{command}`"
     else:
         how = f"no entry for {env_id} in configs/{{{','.join(algos)}}}.yml yet"
-    which = algos[0] if len(algos) == 1 else "/".join(algos)
-    return f"no learned {which} agent in {where}; showing the analytic and random agents only ({how})"
+    return f"no learned {'/'.join(algos)} agent in {where}; showing the analytic and random agents only ({how})"
 
 
 def _learned(agents: dict[str, Path], env_id: str) -> tuple[dict[str, SeededFactories], dict[str, Any]]:

@@ -47,6 +47,8 @@ def interval_text(meta: typing.Mapping[str, Any]) -> str:
     return f"{'(' if meta['low_open'] else '['}{meta['low']:g}, {meta['high']:g}{')' if meta['high_open'] else ']'}"
 
 
+ParamsT = typing.TypeVar("ParamsT", bound="Params")
+
 INT64_RANGE = (-(2**63), 2**63 - 1)
 """The integers a parameter may hold: those of the kernels' int64."""
 
@@ -107,15 +109,15 @@ class Params:
         """Cross-field checks; the default has none."""
 
     @classmethod
-    def of(cls, **values: Any) -> Params:
+    def of(cls: type[ParamsT], **values: Any) -> ParamsT:
         """The parameter set of ``values`` (keyword arguments by field name, the rest at their defaults); a name
-        that is no field raises ``TypeError`` listing the fields (the closest first, if one is close)."""
+        that is no field raises ``TypeError`` naming the closest field, if one is close, and listing them all."""
         names = [f.name for f in dataclasses.fields(cls)]  # type: ignore[arg-type]
-        unknown = [name for name in values if name not in names]
-        if unknown:
-            close = difflib.get_close_matches(unknown[0], names, n=1)
+        unknown = next((name for name in values if name not in names), None)
+        if unknown is not None:
+            close = difflib.get_close_matches(unknown, names, n=1)
             hint = f" (did you mean {close[0]!r}?)" if close else ""
-            raise TypeError(f"{cls.__name__} has no parameter {unknown[0]!r}{hint}; its parameters: {', '.join(names)}")
+            raise TypeError(f"{cls.__name__} has no parameter {unknown!r}{hint}; its parameters: {', '.join(names)}")
         return cls(**values)
 
     def as_dict(self) -> dict[str, Any]:
