@@ -152,16 +152,28 @@ def _restart_kernel(
 ) -> None:
     """The next episode of the episodes ``rows`` (:meth:`~vegym.envs.base.Task.restart`): their ``keys`` advanced
     in place, the episodes started (Projectile-v0's :func:`~vegym.envs.projectile._start` with its constants
-    ``shot_c``), their memory emptied and observed (:func:`_observe` over copies of their rows, ``c`` its
-    constants) into those rows of ``obs``."""
-    m = len(rows)
+    ``shot_c``), their memory emptied and observed (:func:`_observe_started`, ``c`` its constants) into those rows
+    of ``obs``."""
     next_keys = rng.advance_rows(keys, rows)
     _start(next_keys, rows, shot_c, offset, launch, target, wind, bearing, landing)
     _clear(rows, misses, actions, shots)
-    observed = np.empty((m, obs.shape[1]), np.float32)
-    _observe(launch[rows], target[rows], misses[rows], actions[rows], shots[rows], c, observed)
-    for j in range(m):
-        obs[rows[j]] = observed[j]
+    _observe_started(rows, launch, target, c, obs)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _observe_started(rows: np.ndarray, launch: np.ndarray, target: np.ndarray, c: np.ndarray, obs: np.ndarray) -> None:
+    """:func:`_observe` of the rows ``rows``, episodes with no shot fired (an empty memory), into those rows of
+    ``obs``: the target's distance and the launch height, then zeros (0 / max_shots and the empty slots). In place
+    on the rows, without gathering copies of them (a gather of 2,048 rows of 8,192 cost 50 us, their restart's
+    start 57 us)."""
+    target_distance_max, height_scale = c[0], c[1]
+    for j in range(len(rows)):
+        i = rows[j]
+        dx, dz = target[i, 0] - launch[i, 0], target[i, 2] - launch[i, 2]
+        obs[i, 0] = math.sqrt(dx * dx + dz * dz) / target_distance_max
+        obs[i, 1] = launch[i, 1] / height_scale
+        for k in range(2, obs.shape[1]):
+            obs[i, k] = 0.0
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
