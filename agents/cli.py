@@ -119,6 +119,8 @@ def cmd_train(args: argparse.Namespace) -> int:
     if result.interrupted:
         say(f"interrupted at {result.timesteps} steps; saved {result.model_path}; continue with --resume")
         return 130
+    if result.trained == 0:
+        say(f"nothing to train: the run already held {result.resumed_at} steps, at or past --timesteps")
     say(f"saved {result.model_path} after {result.timesteps} steps in {result.wall_time_s:.1f} s")
     return 0
 

@@ -218,6 +218,13 @@ class TrainResult:
     timesteps: int
     interrupted: bool
     wall_time_s: float
+    resumed_at: int = 0
+    """Steps the run held when this call began: 0 for a new run, else those of the model it resumed from."""
+
+    @property
+    def trained(self) -> int:
+        """Steps this call trained: 0 when a resumed run already held ``n_timesteps`` or more."""
+        return self.timesteps - self.resumed_at
 
 
 def _progress_bar_available() -> bool:
@@ -314,7 +321,7 @@ def train(
                     model.save_replay_buffer(path)
             else:
                 (out / REPLAY_FILE).unlink(missing_ok=True)
-        result = _record(out, model.num_timesteps, stopper.interrupted, time.perf_counter() - start)
+        result = _record(out, model.num_timesteps, stopper.interrupted, time.perf_counter() - start, done)
     env.close()
     eval_env.close()
     return result
@@ -345,7 +352,7 @@ def _continue_evaluations(callback: EvalCallback, path: Path, done: int) -> None
             callback.evaluations_successes = saved["successes"][keep].tolist()
 
 
-def _record(out: Path, timesteps: int, interrupted: bool, seconds: float) -> TrainResult:
+def _record(out: Path, timesteps: int, interrupted: bool, seconds: float, resumed_at: int) -> TrainResult:
     """Update ``train_stats.json`` (wall time summed over resumed segments) and return the result."""
     stats_path = out / STATS_FILE
     previous = json.loads(stats_path.read_text()) if stats_path.exists() else {"wall_time_s": 0.0}
@@ -353,7 +360,7 @@ def _record(out: Path, timesteps: int, interrupted: bool, seconds: float) -> Tra
     stats = {"timesteps": timesteps, "wall_time_s": round(total, 2), "interrupted": interrupted}
     with _replacing(stats_path) as path:
         path.write_text(json.dumps(stats, indent=2) + "\n")
-    return TrainResult(out / MODEL_FILE, timesteps, interrupted, total)
+    return TrainResult(out / MODEL_FILE, timesteps, interrupted, total, resumed_at)
 
 
 def resume_config(out: Path, n_timesteps: int | None = None) -> TrainConfig:

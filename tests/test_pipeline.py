@@ -392,6 +392,10 @@ def test_train_cli_tiny_budget_produces_a_loadable_model(tmp_path: Path) -> None
     assert action.shape == (3,)
     again = run_cli(*args)
     assert again.returncode == 2 and "already holds a training run" in again.stdout
+    steps = saved_timesteps(out / "model.zip")
+    past = run_cli(*args[:5], "--out", str(out), "--resume", "--timesteps", "128", "--no-progress")
+    assert past.returncode == 0 and f"nothing to train: the run already held {steps} steps" in past.stdout
+    assert saved_timesteps(out / "model.zip") == steps
     seeds = run_cli(*args, "--seeds", "1")  # seed_<k>/ runs beside a single run would mix the layouts
     assert seeds.returncode == 2 and "holds a single training run" in seeds.stdout
     assert not (out / "seed_1").exists()
@@ -661,6 +665,10 @@ def test_train_seeds_trains_each_seed_and_reports_a_failed_one(tmp_path: Path) -
     assert resumed.returncode == 0, resumed.stdout + resumed.stderr
     assert all(saved_timesteps(out / f"seed_{s}" / "model.zip") >= 5000 for s in (1, 2))
     assert saved_timesteps(out / "seed_3" / "model.zip") < 5000
+    assert "seed 1: done after" in resumed.stdout
+    steps = saved_timesteps(out / "seed_3" / "model.zip")
+    already = run_cli(*resume[:-3], "--seeds", "3", "--resume", "--timesteps", "256", "--no-progress")
+    assert already.returncode == 0 and f"seed 3: nothing to train at {steps} steps" in already.stdout
     wrong = run_cli("train", "--env", "Projectile-v0", "--algo", "sac", "--out", str(out), "--seeds", "1", "--resume")
     assert wrong.returncode == 2 and "is ppo on vegym/Projectile-v0, not sac" in wrong.stdout
     name, factories, config = agent_factory(str(out), "vegym/Projectile-v0")
