@@ -58,6 +58,29 @@ with ``nn`` and ``th`` in scope, so ``optim.Adam`` alone works here only): its m
 
 SCHEDULE_PREFIX = "lin_"
 
+HYPERPARAM_RANGES: dict[str, tuple[float, float, bool]] = {
+    "learning_rate": (0.0, math.inf, True),
+    "gamma": (0.0, 1.0, False),
+    "gae_lambda": (0.0, 1.0, False),
+    "tau": (0.0, 1.0, True),
+    "clip_range": (0.0, math.inf, True),
+    "clip_range_vf": (0.0, math.inf, True),
+    "ent_coef": (0.0, math.inf, False),
+    "vf_coef": (0.0, math.inf, False),
+    "max_grad_norm": (0.0, math.inf, True),
+    "n_steps": (1, math.inf, False),
+    "batch_size": (1, math.inf, False),
+    "n_epochs": (1, math.inf, False),
+    "buffer_size": (1, math.inf, False),
+    "learning_starts": (0, math.inf, False),
+    "policy_delay": (1, math.inf, False),
+    "target_policy_noise": (0.0, math.inf, False),
+    "target_noise_clip": (0.0, math.inf, False),
+}
+"""Allowed values of SB3 arguments that SB3 takes unchecked (it trains with gamma -0.5), as ``(low, high,
+low_open)``: ``high`` is allowed unless infinite. A ``lin_<start>`` schedule is checked by its start; values that
+are not numbers (SAC's ``ent_coef: auto``, a null ``clip_range_vf``) pass."""
+
 
 @dataclass(frozen=True)
 class LinearDecay:
@@ -396,6 +419,17 @@ def _check(c: TrainConfig, where: str) -> None:
             raise ConfigError(f"{where}: noise_type={c.noise_type!r}; choose one of {', '.join(NOISE_TYPES)} or null")
     if c.noise_std < 0:
         raise ConfigError(f"{where}: noise_std={c.noise_std!r} must be non-negative")
+    for key, value in c.hyperparams.items():
+        if key in HYPERPARAM_RANGES:
+            low, high, low_open = HYPERPARAM_RANGES[key]
+            number = schedule_start(value) if isinstance(value, str) and value.startswith(SCHEDULE_PREFIX) else value
+            if not isinstance(number, int | float) or isinstance(number, bool):
+                continue
+            above = low < number if low_open else low <= number
+            below = number < high if math.isinf(high) else number <= high
+            if not (above and below):
+                interval = f"{'(' if low_open else '['}{low:g}, {high:g}{')' if math.isinf(high) else ']'}"
+                raise ConfigError(f"{where}: {key}={value!r} is outside {interval}")
     policy_hints = constructor_hints(c.algo_class.policy_aliases[c.policy])
     for key, value in c.policy_kwargs.items():
         if key not in policy_hints or key in ("self", "observation_space", "action_space", "lr_schedule"):
