@@ -80,7 +80,7 @@ def cmd_list(args: argparse.Namespace) -> int:
             ]
         )
         env.close()
-    _print_table("vegym envs", ["id", "actions", "observations", "steps", "analytic baseline", "task"], rows)
+    _print_table("vegym envs", ["id", "actions", "observations", "step limit", "analytic baseline", "task"], rows)
     return 0
 
 
