@@ -158,7 +158,7 @@ def _train_seeds(args: argparse.Namespace, env_id: str, out: Path) -> int:
         configs,
         out,
         jobs=jobs,
-        resume=args.resume,
+        resumed=list(configs) if args.resume else (),
         commands=None if args.resume else commands,
         threads=args.threads,
         progress_bar=not args.no_progress,

@@ -20,11 +20,11 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from agents.config import ALGOS, CONFIG_DIR, load_config, read_yaml
+from agents.config import ALGOS, CONFIG_DIR, TrainConfig, load_config, read_yaml
 from agents.evaluation import EVAL_SEED, EvalResult, SeededFactories, agent_factories, evaluate_agents, load_seeded
 from agents.multiseed import seed_configs, train_seeds
 from agents.plots import save_episode_gif, save_score_chart, save_trajectory_plot
-from agents.training import CHECKPOINT_DIR, EVAL_DIR, seed_dir, seed_runs
+from agents.training import CHECKPOINT_DIR, CONFIG_FILE, EVAL_DIR, latest_model, resume_config, seed_dir, seed_runs
 from vegym import env_name
 
 PRETRAINED_DIR = Path(__file__).resolve().parent / "pretrained"
@@ -92,25 +92,32 @@ def retrain(
     ``<models_dir>/<Env-v0>/<algo>/seed_<k>``; RuntimeError if a seed fails, KeyboardInterrupt if stopped.
 
     The runs are trained beside it, in ``<algo>.retraining/``, and replace the agent only when every seed has
-    finished: a failed or interrupted retraining leaves the agent as it was (and its partial runs there)."""
+    finished: a failed or interrupted retraining leaves the agent as it was and its partial runs there, which the
+    next retraining resumes where their config is the one it trains (:func:`partial_runs`)."""
     agents = {}
     for algo in configured_algos(env_id, algos):
         out = Path(models_dir) / env_name(env_id) / algo
         staging = out.with_name(f"{algo}.retraining")
-        shutil.rmtree(staging, ignore_errors=True)
         overrides = {} if timesteps is None else {"n_timesteps": timesteps}
-        config = load_config(CONFIG_DIR / f"{algo}.yml", env_id, algo, overrides)
+        configs = seed_configs(load_config(CONFIG_DIR / f"{algo}.yml", env_id, algo, overrides), seeds)
+        resumed = partial_runs(staging, configs)
+        if staging.exists():
+            for path in set(staging.iterdir()) - {seed_dir(staging, s) for s in resumed}:
+                shutil.rmtree(path) if path.is_dir() else path.unlink()
+        if resumed:
+            log(f"{env_id} {algo}: resuming the partial runs of seeds {sorted(resumed)} in {_display(staging)}")
         # each run records how the agent it becomes was made: its place after the swap
         commands = {s: train_command(env_id, algo, seed_dir(out, s), timesteps, seed=s) for s in seeds}
         outcomes = train_seeds(
-            seed_configs(config, seeds),
+            configs,
             staging,
             jobs=jobs,
+            resumed=resumed,
             commands=commands,
             progress_bar=progress_bar,
             log=log,
         )
-        kept = f"{_display(out)} is unchanged; the partial runs are in {_display(staging)}"
+        kept = f"{_display(out)} is unchanged; the partial runs are in {_display(staging)}, and retraining resumes them"
         if any(o.result is not None and o.result.interrupted for o in outcomes):
             log(f"{env_id} {algo}: retraining interrupted; {kept}")
             raise KeyboardInterrupt
@@ -124,6 +131,22 @@ def retrain(
         staging.rename(out)
         agents[algo] = out
     return agents
+
+
+def partial_runs(staging: Path, configs: Mapping[int, TrainConfig]) -> set[int]:
+    """The seeds of ``configs`` whose run in ``staging`` (a retraining's, left by a failure or an interrupt) goes
+    on: a run holding a model, with the seed's config but for the total steps, which the new config sets."""
+    resumable = set()
+    for seed, config in configs.items():
+        run = seed_dir(staging, seed)
+        if (run / CONFIG_FILE).is_file() and latest_model(run) is not None:
+            try:
+                saved = resume_config(run, config.n_timesteps)
+            except ValueError:  # a config this version no longer reads
+                continue
+            if saved == config:
+                resumable.add(seed)
+    return resumable
 
 
 def _missing_note(env_id: str, models_dir: Path, algos: Sequence[str]) -> str:

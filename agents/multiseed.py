@@ -13,7 +13,7 @@ import multiprocessing as mp
 import queue
 import time
 import traceback
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass
 from multiprocessing.process import BaseProcess
 from pathlib import Path
@@ -121,13 +121,14 @@ def train_seeds(
     out: Path,
     *,
     jobs: int,
-    resume: bool = False,
+    resumed: Collection[int] = (),
     commands: dict[int, str] | None = None,
     threads: int = 1,
     progress_bar: bool = True,
     log: Callable[[str], None] = print,
 ) -> list[SeedOutcome]:
-    """Train every seed's config into ``out/seed_<k>`` in worker processes, ``jobs`` at a time."""
+    """Train every seed's config into ``out/seed_<k>`` in worker processes, ``jobs`` at a time; the ``resumed``
+    seeds continue their runs there (``train(resume=True)``), the others start afresh."""
     if jobs < 1:
         raise ValueError(f"jobs={jobs!r} must be at least 1")
     if latest_model(Path(out)) is not None:
@@ -154,7 +155,7 @@ def train_seeds(
                 while pending and len(running) < jobs and not stopping:
                     seed = pending[0]
                     command = (commands or {}).get(seed)
-                    args = (configs[seed], seed_dir(out, seed), resume, command, threads, channel, stop)
+                    args = (configs[seed], seed_dir(out, seed), seed in resumed, command, threads, channel, stop)
                     process = context.Process(target=_train_seed, args=args, name=f"vegym-train-seed-{seed}")
                     process.start()
                     running[seed] = process

@@ -268,8 +268,9 @@ def train(
         env = VecNormalize.load(str(stats), env) if stats is not None else VecNormalize(env, **normalize)
         eval_env = VecNormalize(eval_env, training=False, norm_reward=False)
     tensorboard_log = str(out / "tb") if importlib.util.find_spec("tensorboard") is not None else None
+    with _replacing(out / CONFIG_FILE) as path:  # a resumed run's too: its new total steps
+        save_resolved(config, path)
     if source is None:
-        save_resolved(config, out / CONFIG_FILE)
         if command is not None:
             (out / COMMAND_FILE).write_text(command + "\n")
         model = build_model(config, env, tensorboard_log)

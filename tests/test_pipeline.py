@@ -34,6 +34,7 @@ from agents.config import (
     load_configs,
     load_resolved,
     save_resolved,
+    with_overrides,
     zoo_entry,
 )
 from agents.evaluation import EVAL_SEED, agent_factory, evaluate, evaluate_agents, load_learned
@@ -438,6 +439,7 @@ def test_an_interrupt_saves_a_loadable_model_and_resume_continues(tmp_path: Path
     resumed = run_cli(*args[:5], "--out", str(out), "--resume", "--timesteps", str(stopped + 200), "--no-progress")
     assert resumed.returncode == 0, resumed.stdout + resumed.stderr
     assert saved_timesteps(out / "model.zip") >= stopped + 200
+    assert load_resolved(out / "config.yml").n_timesteps == stopped + 200
     assert json.loads((out / "train_stats.json").read_text())["interrupted"] is False
 
 
@@ -643,6 +645,39 @@ def test_a_retraining_that_does_not_finish_leaves_the_agent_as_it_was(
     assert (tmp_path / "Projectile-v0" / "ppo.retraining" / "seed_0" / "model.zip").read_text() == "a partial run"
 
 
+def test_a_retraining_run_again_resumes_the_partial_runs_of_its_config(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """An interrupted ``compare --retrain`` keeps its partial runs; run again, it resumes those of the config it
+    trains (the total steps aside) and starts the others afresh."""
+    staging = tmp_path / "Projectile-v0" / "ppo.retraining"
+    config = load_config(CONFIG_DIR / "ppo.yml", "vegym/Projectile-v0", "ppo", {"n_timesteps": 64})
+    train(with_overrides(config, {"seed": 0}, "test"), staging / "seed_0", progress_bar=False, verbose=False)
+    other = with_overrides(config, {"seed": 1, "learning_rate": 1e-3}, "test")  # the config changed since
+    train(other, staging / "seed_1", progress_bar=False, verbose=False)
+    (staging / "tb").mkdir()
+    calls: list[set[int]] = []
+
+    def recording(configs: dict, out: Path, **kwargs: Any) -> list[SeedOutcome]:
+        calls.append(set(kwargs["resumed"]))
+        assert sorted(path.name for path in out.iterdir()) == ["seed_0"]
+        return real_train_seeds(configs, out, **kwargs)
+
+    real_train_seeds = compare.train_seeds
+    monkeypatch.setattr(compare, "train_seeds", recording)
+    lines: list[str] = []
+    compare.retrain(
+        "vegym/Projectile-v0", tmp_path, ["ppo"], seeds=[0, 1], timesteps=128, progress_bar=False, log=lines.append
+    )
+    assert calls == [{0}]
+    assert "vegym/Projectile-v0 ppo: resuming the partial runs of seeds [0]" in lines[0]
+    for seed in (0, 1):
+        run = tmp_path / "Projectile-v0" / "ppo" / f"seed_{seed}"
+        assert saved_timesteps(run / "model.zip") >= 128
+        assert load_learned(run)[1] == with_overrides(config, {"seed": seed, "n_timesteps": 128}, "test")
+    assert not staging.exists()
+
+
 def test_train_seeds_trains_each_seed_and_reports_a_failed_one(tmp_path: Path) -> None:
     """--seeds trains one run per seed in parallel; a seed that fails is named and the others still finish."""
     out = tmp_path / "agent"
@@ -669,9 +704,10 @@ def test_train_seeds_trains_each_seed_and_reports_a_failed_one(tmp_path: Path) -
     assert all(saved_timesteps(out / f"seed_{s}" / "model.zip") >= 5000 for s in (1, 2))
     assert saved_timesteps(out / "seed_3" / "model.zip") < 5000
     assert "seed 1: done after" in resumed.stdout
-    steps = saved_timesteps(out / "seed_3" / "model.zip")
-    already = run_cli(*resume[:-3], "--seeds", "3", "--resume", "--timesteps", "256", "--no-progress")
-    assert already.returncode == 0 and f"seed 3: nothing to train at {steps} steps" in already.stdout
+    steps = saved_timesteps(out / "seed_1" / "model.zip")
+    again = run_cli(*resume[:-3], "--seeds", "1,3", "--resume", "--timesteps", "5000", "--no-progress")
+    assert again.returncode == 0 and f"seed 1: nothing to train at {steps} steps" in again.stdout
+    assert "seed 3: done after" in again.stdout  # the seeds of one agent share their config, total steps included
     wrong = run_cli("train", "--env", "Projectile-v0", "--algo", "sac", "--out", str(out), "--seeds", "1", "--resume")
     assert wrong.returncode == 2 and "is ppo on vegym/Projectile-v0, not sac" in wrong.stdout
     name, factories, config = agent_factory(str(out), "vegym/Projectile-v0")
