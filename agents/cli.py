@@ -17,7 +17,7 @@ from rich.table import Table
 from rich.text import Text
 
 import vegym
-from agents.config import ALGOS, CONFIG_DIR, ConfigError, TrainConfig, load_config
+from agents.config import ALGOS, CONFIG_DIR, ConfigError, TrainConfig, load_config, make_kwargs
 from agents.evaluation import EVAL_SEED, REFERENCE_AGENTS, agent_factory, evaluate_agents, run_episode
 from vegym import env_name
 
@@ -309,7 +309,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
         save_episode_gif(env_id, factory, args.seed, Path(args.gif), env_kwargs)
         say(f"wrote {args.gif}")
         return 0
-    env = gym.make(env_id, render_mode="human", **env_kwargs)
+    env = gym.make(env_id, render_mode="human", **make_kwargs(env_id, env_kwargs))
     try:
         agent = factory(env)
         for k in range(args.episodes):

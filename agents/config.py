@@ -445,12 +445,27 @@ def _check(c: TrainConfig, where: str) -> None:
         raise ConfigError(f"{where}: env_kwargs: {exc}") from None
 
 
+def _task_class(env_id: str) -> Any:
+    spec = vegym.ENVS[env_id]
+    return load_object(f"{spec['module']}:{spec['env']}").task_cls
+
+
 def env_params(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
     """The params dataclass ``gymnasium.make(env_id, **env_kwargs)`` would build (TypeError for an unknown
     parameter, ValueError for a value out of range), without making the env."""
-    spec = vegym.ENVS[env_id]
     registered = dict(gym.spec(env_id).kwargs)
-    return load_object(f"{spec['module']}:{spec['env']}").task_cls.params_cls.of(**{**registered, **env_kwargs})
+    return _task_class(env_id).params_cls.of(**{**registered, **env_kwargs})
+
+
+def make_kwargs(env_id: str, env_kwargs: Mapping[str, Any]) -> dict[str, Any]:
+    """Keyword arguments of ``gymnasium.make`` and ``make_vec`` for ``env_id`` with the parameters ``env_kwargs``:
+    those, and ``max_episode_steps`` where they set the episode length the task plans for (``episode_steps``,
+    ``episode_bounces``), which the registered time limit would otherwise cut short without a word."""
+    kwargs = dict(env_kwargs)
+    planned = _task_class(env_id).planned_length_param
+    if planned is not None and planned in kwargs:
+        kwargs["max_episode_steps"] = kwargs[planned]
+    return kwargs
 
 
 class _UniqueKeyLoader(yaml.SafeLoader):

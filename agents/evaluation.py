@@ -30,7 +30,7 @@ from agents.analytic import (
     SuspensionContinuousSkyhook,
     controller_for,
 )
-from agents.config import TrainConfig, load_resolved
+from agents.config import TrainConfig, load_resolved, make_kwargs
 from agents.statistics import ScoreSummary, summarize
 from agents.training import CONFIG_FILE, MODEL_FILE, normalize_path, seed_runs
 
@@ -312,7 +312,7 @@ def evaluate(
     """Run ``episodes`` episodes (seeds ``seed``, ``seed + 1``, ...) of the agent ``factory`` builds."""
     if episodes < 1:
         raise ValueError(f"episodes={episodes!r} must be at least 1")
-    env = gym.make(env_id, **dict(env_kwargs or {}))
+    env = gym.make(env_id, **make_kwargs(env_id, env_kwargs or {}))
     try:
         actor = factory(env)
         return EvalResult(env_id, agent, seed, [[run_episode(env, actor, seed + k) for k in range(episodes)]])

@@ -20,6 +20,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from matplotlib.patches import Circle
 
+from agents.config import make_kwargs
 from agents.evaluation import AgentFactory, EvalResult
 from vegym import env_name
 from vegym.envs.projectile import ProjectileTask
@@ -209,7 +210,7 @@ def save_episode_gif(
     Long episodes keep every k-th frame (at most ``max_frames``); playback runs at the env's frame rate, sped up
     to last at most ``MAX_GIF_SECONDS``.
     """
-    env = gym.make(env_id, render_mode="rgb_array", **dict(env_kwargs or {}))
+    env = gym.make(env_id, render_mode="rgb_array", **make_kwargs(env_id, env_kwargs or {}))
     try:
         limit = env.spec.max_episode_steps if env.spec is not None and env.spec.max_episode_steps else max_frames
         stride = max(1, math.ceil(limit / max_frames))

@@ -45,7 +45,7 @@ from sqlalchemy import create_engine, text
 from sqlalchemy.engine import make_url
 from stable_baselines3.common.callbacks import BaseCallback
 
-from agents.config import CONFIG_DIR, TrainConfig, env_params, load_config, with_overrides, zoo_entry
+from agents.config import CONFIG_DIR, TrainConfig, env_params, load_config, make_kwargs, with_overrides, zoo_entry
 from agents.evaluation import BASELINES, LearnedAgent, evaluate, load_learned, normalized, run_episode
 from agents.training import train
 
@@ -278,7 +278,7 @@ class Scorer:
             raise ValueError(f"{env_id}: the analytic and random agents tie on the sweep episodes")
 
     def __call__(self, agent: Any) -> float:
-        env = gym.make(self.env_id, **self.env_kwargs)
+        env = gym.make(self.env_id, **make_kwargs(self.env_id, self.env_kwargs))
         try:
             returns = [run_episode(env, agent, SWEEP_EVAL_SEED + k).ret for k in range(self.episodes)]
         finally:

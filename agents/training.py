@@ -35,7 +35,7 @@ from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback,
 from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv, VecMonitor, VecNormalize
 
-from agents.config import TrainConfig, load_resolved, save_resolved, with_overrides
+from agents.config import TrainConfig, load_resolved, make_kwargs, save_resolved, with_overrides
 from agents.vec_adapter import VectorEnvAdapter
 
 MODEL_FILE = "model.zip"
@@ -56,11 +56,12 @@ EVAL_SEED_OFFSET = 10_000
 def make_env(config: TrainConfig, seed: int, n_envs: int | None = None) -> VecEnv:
     """Monitored SB3 vector env of the config's env: the native vector env (adapted) if ``n_envs > 1``."""
     n = config.n_envs if n_envs is None else n_envs
+    kwargs = make_kwargs(config.env_id, config.env_kwargs)
     if n > 1:
-        native = gym.make_vec(config.env_id, num_envs=n, vectorization_mode="vector_entry_point", **config.env_kwargs)
+        native = gym.make_vec(config.env_id, num_envs=n, vectorization_mode="vector_entry_point", **kwargs)
         venv: VecEnv = VectorEnvAdapter(native)
     else:
-        venv = DummyVecEnv([lambda: gym.make(config.env_id, **config.env_kwargs)])
+        venv = DummyVecEnv([lambda: gym.make(config.env_id, **kwargs)])
     venv.seed(seed)
     return VecMonitor(venv)
 

@@ -95,7 +95,8 @@ PLANNED_LENGTHS = {
 def test_a_time_limit_past_the_planned_length_warns_and_a_shorter_one_does_not(env_id: str) -> None:
     """Registered, the time limit is the planned length; a longer one (max_episode_steps alone) warns once: from the
     vector env when it is made, from the single env (which cannot see its TimeLimit) at the step past the plan. A
-    shorter one only cuts episodes, as truncation does."""
+    shorter one only cuts episodes, as truncation does, but the vector env warns when the plan was changed alone (the
+    registered limit then cuts it)."""
     name = PLANNED_LENGTHS.get(env_id)
     assert name == type(gym.make(env_id).unwrapped.task).planned_length_param
     if name is None:
@@ -112,6 +113,9 @@ def test_a_time_limit_past_the_planned_length_warns_and_a_shorter_one_does_not(e
     limit = planned + 1
     with pytest.warns(UserWarning, match=rf"max_episode_steps={limit}, but the task plans episodes of {name}="):
         gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point", max_episode_steps=limit)
+    cut = rf"max_episode_steps={planned} cuts the episodes that {name}={limit} plans"  # the registered limit
+    with pytest.warns(UserWarning, match=cut):
+        gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point", **{name: limit})
     short = planned // 2
     env = gym.make(env_id, max_episode_steps=short + 2, **{name: short})
     action = np.full(env.action_space.shape, 0.8, np.float32)  # BouncingBall: e = 0.9 keeps the ball bouncing

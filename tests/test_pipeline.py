@@ -33,6 +33,7 @@ from agents.config import (
     load_config,
     load_configs,
     load_resolved,
+    make_kwargs,
     save_resolved,
     with_overrides,
     zoo_entry,
@@ -643,6 +644,19 @@ def test_a_retraining_that_does_not_finish_leaves_the_agent_as_it_was(
         compare.retrain("vegym/Projectile-v0", tmp_path, ["ppo"], seeds=[0], log=lambda line: None)
     assert (run / "model.zip").read_text() == "the shipped agent"
     assert (tmp_path / "Projectile-v0" / "ppo.retraining" / "seed_0" / "model.zip").read_text() == "a partial run"
+
+
+def test_a_config_episode_length_is_the_time_limit_of_training_and_evaluation() -> None:
+    """env_kwargs that set the episode length a task plans for (Aircraft's episode_steps) set the time limit too:
+    the registered one (300 steps) would cut training and evaluation episodes short without a word."""
+    config = load_config(CONFIG_DIR / "ppo.yml", "vegym/Aircraft-v0", "ppo")
+    config = with_overrides(config, {"env_kwargs": {"episode_steps": 350}}, "test")
+    assert make_env(config, 0, n_envs=2).venv.venv.max_episode_steps == 350
+    assert make_env(config, 0, n_envs=1).venv.envs[0].spec.max_episode_steps == 350
+    factory = agent_factory("analytic", "vegym/Aircraft-v0")[1]
+    result = evaluate("vegym/Aircraft-v0", "analytic", factory, 1, env_kwargs=config.env_kwargs)
+    assert result.metrics()["episode_length"] == 350
+    assert make_kwargs("vegym/Aircraft-v0", {"wind_x": 1.0}) == {"wind_x": 1.0}  # the registered limit stands
 
 
 def test_a_retraining_run_again_resumes_the_partial_runs_of_its_config(

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import abc
 import collections
+import dataclasses
 import functools
 import importlib
 import itertools
@@ -84,11 +85,18 @@ class Task(abc.ABC, Generic[P]):
         """The episode length (steps) the task plans for (:attr:`planned_length_param`), or None."""
         return None if self.planned_length_param is None else getattr(self.params, self.planned_length_param)
 
+    @property
+    def plan_changed(self) -> bool:
+        """Whether the planned episode length differs from its default, the registered time limit."""
+        name = self.planned_length_param
+        default = next((f.default for f in dataclasses.fields(self.params) if f.name == name), None)
+        return name is not None and self.planned_steps != default
+
     def warn_unplanned_length(self, what: str) -> None:
         """Warn that episodes run past the planned length (``what`` says how): they outlive the task's demand
         schedule or its charge for the steps left, and only its parameter changes the plan. A shorter time limit is
-        not warned of: it cuts episodes, as truncation does (before the schedule's final hold, with charges that
-        still count the planned steps)."""
+        not warned of here: it cuts episodes, as truncation does (before the schedule's final hold, with charges that
+        still count the planned steps); the vector env warns of one that cuts a plan changed alone."""
         name = self.planned_length_param
         gym.logger.warn(
             f"{what}, but the task plans episodes of {name}={self.planned_steps} steps (its demand schedule or its "
@@ -736,6 +744,13 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         planned = self.task.planned_steps
         if planned is not None and (max_episode_steps is None or max_episode_steps > planned):
             self.task.warn_unplanned_length(f"{type(self).__name__}: max_episode_steps={max_episode_steps}")
+        elif planned is not None and max_episode_steps < planned and self.task.plan_changed:
+            name = self.task.planned_length_param
+            gym.logger.warn(
+                f"{type(self).__name__}: max_episode_steps={max_episode_steps} cuts the episodes that {name}={planned} "
+                f"plans (make_vec passes the registered time limit unless given one); pass "
+                f"max_episode_steps={planned} as well"
+            )
         self.params: P = self.task.params  # type: ignore[assignment]
         self.num_envs = num_envs
         self.max_episode_steps = max_episode_steps

@@ -509,7 +509,9 @@ class BouncingBallEnv(VegymEnv[BouncingBallParams]):
     Another episode length takes both ``episode_bounces=N`` and ``max_episode_steps=N``: the task plans for
     ``episode_bounces``, and ``max_episode_steps`` alone only moves the time limit. A shorter one cuts episodes,
     whose rest charge still counts the planned bounces; a longer one outlives the plan and warns (a vector env when
-    made, a single env at the step past the plan).
+    made, a single env at the step past the plan). ``episode_bounces`` alone keeps the registered time limit, which
+    then cuts its episodes: a vector env warns when made, a single env cannot see its limit (``vegym``
+    train, evaluate and compare make it the time limit).
 
     ## Version History
     * v0: initial version.
