@@ -120,7 +120,9 @@ def cmd_train(args: argparse.Namespace) -> int:
         say(f"interrupted at {result.timesteps} steps; saved {result.model_path}; continue with --resume")
         return 130
     if result.trained == 0:
-        say(f"nothing to train: the run already held {result.resumed_at} steps, at or past --timesteps")
+        held = f"{result.timesteps} steps, its total of {config.n_timesteps} or more"
+        say(f"nothing to train: {result.model_path} already holds {held}")
+        return 0
     say(f"saved {result.model_path} after {result.timesteps} steps in {result.wall_time_s:.1f} s")
     return 0
 
@@ -167,8 +169,13 @@ def _train_seeds(args: argparse.Namespace, env_id: str, out: Path) -> int:
     failed = [o.seed for o in outcomes if o.error is not None and o.error != NOT_STARTED]
     not_started = [o.seed for o in outcomes if o.error == NOT_STARTED]
     interrupted = [o.seed for o in outcomes if o.result is not None and o.result.interrupted]
-    done = [o.seed for o in outcomes if o.ok]
-    say(f"trained seeds {done or 'none'}" + (f"; failed: {failed}" if failed else ""))
+    done = [o.seed for o in outcomes if o.ok and o.result is not None and o.result.trained]
+    untouched = [o.seed for o in outcomes if o.ok and o.result is not None and not o.result.trained]
+    say(
+        f"trained seeds {done or 'none'}"
+        + (f"; nothing to train for {untouched}" if untouched else "")
+        + (f"; failed: {failed}" if failed else "")
+    )
     if interrupted or not_started:
         if interrupted:
             say(f"interrupted seeds {interrupted} saved their models")

@@ -16,15 +16,25 @@ import math
 import os
 import shlex
 import shutil
+import warnings
 from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from agents.config import ALGOS, CONFIG_DIR, TrainConfig, load_config, read_yaml
+from agents.config import ALGOS, CONFIG_DIR, TrainConfig, load_config, read_yaml, save_resolved
 from agents.evaluation import EVAL_SEED, EvalResult, SeededFactories, agent_factories, evaluate_agents, load_seeded
 from agents.multiseed import seed_configs, train_seeds
 from agents.plots import save_episode_gif, save_score_chart, save_trajectory_plot
-from agents.training import CHECKPOINT_DIR, CONFIG_FILE, EVAL_DIR, latest_model, resume_config, seed_dir, seed_runs
+from agents.training import (
+    CHECKPOINT_DIR,
+    CONFIG_FILE,
+    EVAL_DIR,
+    latest_model,
+    resume_config,
+    resume_source,
+    seed_dir,
+    seed_runs,
+)
 from vegym import env_name
 
 PRETRAINED_DIR = Path(__file__).resolve().parent / "pretrained"
@@ -102,8 +112,12 @@ def retrain(
         configs = seed_configs(load_config(CONFIG_DIR / f"{algo}.yml", env_id, algo, overrides), seeds)
         resumed = partial_runs(staging, configs)
         if staging.exists():
-            for path in set(staging.iterdir()) - {seed_dir(staging, s) for s in resumed}:
-                shutil.rmtree(path) if path.is_dir() else path.unlink()
+            discarded = sorted(set(staging.iterdir()) - {seed_dir(staging, s) for s in resumed})
+            if discarded:
+                names = ", ".join(path.name for path in discarded)
+                log(f"{env_id} {algo}: discarding {names} in {_display(staging)} (other seeds or settings)")
+            for path in discarded:
+                shutil.rmtree(path) if path.is_dir() and not path.is_symlink() else path.unlink()
         if resumed:
             log(f"{env_id} {algo}: resuming the partial runs of seeds {sorted(resumed)} in {_display(staging)}")
         # each run records how the agent it becomes was made: its place after the swap
@@ -127,6 +141,8 @@ def retrain(
         for seed in seeds:
             for name in BY_PRODUCTS:
                 shutil.rmtree(seed_dir(staging, seed) / name, ignore_errors=True)
+            # the retraining's config, total steps included, also for a resumed run that already held them
+            save_resolved(configs[seed], seed_dir(staging, seed) / CONFIG_FILE)
         shutil.rmtree(out, ignore_errors=True)
         staging.rename(out)
         agents[algo] = out
@@ -135,17 +151,21 @@ def retrain(
 
 def partial_runs(staging: Path, configs: Mapping[int, TrainConfig]) -> set[int]:
     """The seeds of ``configs`` whose run in ``staging`` (a retraining's, left by a failure or an interrupt) goes
-    on: a run holding a model, with the seed's config but for the total steps, which the new config sets."""
+    on: a run with the seed's config but for the total steps, which the new config sets, and a model that loads."""
     resumable = set()
     for seed, config in configs.items():
         run = seed_dir(staging, seed)
-        if (run / CONFIG_FILE).is_file() and latest_model(run) is not None:
-            try:
-                saved = resume_config(run, config.n_timesteps)
-            except ValueError:  # a config this version no longer reads
+        if not (run / CONFIG_FILE).is_file() or latest_model(run) is None:
+            continue
+        try:
+            if resume_config(run, config.n_timesteps) != config:
                 continue
-            if saved == config:
-                resumable.add(seed)
+            with warnings.catch_warnings():  # a cut-short checkpoint: the resumed run's own warning names it
+                warnings.simplefilter("ignore")
+                resume_source(run, config)
+        except ValueError:  # a config this version no longer reads, or no model that loads
+            continue
+        resumable.add(seed)
     return resumable
 
 

@@ -76,10 +76,14 @@ HYPERPARAM_RANGES: dict[str, tuple[float, float, bool]] = {
     "policy_delay": (1, math.inf, False),
     "target_policy_noise": (0.0, math.inf, False),
     "target_noise_clip": (0.0, math.inf, False),
+    "clip_obs": (0.0, math.inf, True),
+    "clip_reward": (0.0, math.inf, True),
+    "epsilon": (0.0, math.inf, True),
 }
-"""Allowed values of SB3 arguments that SB3 takes unchecked (it trains with gamma -0.5), as ``(low, high,
-low_open)``: ``high`` is allowed unless infinite. A ``lin_<start>`` schedule is checked by its start; values that
-are not numbers (SAC's ``ent_coef: auto``, a null ``clip_range_vf``) pass."""
+"""Allowed values of arguments that SB3 takes unchecked (it trains with gamma -0.5): the algorithms' and
+VecNormalize's (``normalize``: ``gamma``, ``clip_obs``, ...), as ``(low, high, low_open)``; ``high`` is allowed
+unless infinite. A ``lin_<start>`` schedule is checked by its start; values that are not numbers (SAC's
+``ent_coef: auto``, a null ``clip_range_vf``) pass."""
 
 
 @dataclass(frozen=True)
@@ -419,17 +423,12 @@ def _check(c: TrainConfig, where: str) -> None:
             raise ConfigError(f"{where}: noise_type={c.noise_type!r}; choose one of {', '.join(NOISE_TYPES)} or null")
     if c.noise_std < 0:
         raise ConfigError(f"{where}: noise_std={c.noise_std!r} must be non-negative")
+    hints = constructor_hints(c.algo_class)
     for key, value in c.hyperparams.items():
-        if key in HYPERPARAM_RANGES:
-            low, high, low_open = HYPERPARAM_RANGES[key]
-            number = schedule_start(value) if isinstance(value, str) and value.startswith(SCHEDULE_PREFIX) else value
-            if not isinstance(number, int | float) or isinstance(number, bool):
-                continue
-            above = low < number if low_open else low <= number
-            below = number < high if math.isinf(high) else number <= high
-            if not (above and below):
-                interval = f"{'(' if low_open else '['}{low:g}, {high:g}{')' if math.isinf(high) else ']'}"
-                raise ConfigError(f"{where}: {key}={value!r} is outside {interval}")
+        _check_range(key, schedule_start(value) if _is_schedule(value, hints[key]) else value, value, where)
+    if isinstance(c.normalize, dict):
+        for key, value in c.normalize.items():
+            _check_range(key, value, value, f"{where}: normalize")
     policy_hints = constructor_hints(c.algo_class.policy_aliases[c.policy])
     for key, value in c.policy_kwargs.items():
         if key not in policy_hints or key in ("self", "observation_space", "action_space", "lr_schedule"):
@@ -443,6 +442,19 @@ def _check(c: TrainConfig, where: str) -> None:
         env_params(c.env_id, c.env_kwargs)
     except (TypeError, ValueError) as exc:
         raise ConfigError(f"{where}: env_kwargs: {exc}") from None
+
+
+def _check_range(key: str, number: Any, value: Any, where: str) -> None:
+    """ConfigError if the setting ``key`` (``value`` as written, ``number`` its value or a schedule's start) is a
+    number outside its :data:`HYPERPARAM_RANGES` entry."""
+    if key not in HYPERPARAM_RANGES or not isinstance(number, int | float) or isinstance(number, bool):
+        return
+    low, high, low_open = HYPERPARAM_RANGES[key]
+    above = low < number if low_open else low <= number
+    below = number < high if math.isinf(high) else number <= high
+    if not (above and below):
+        interval = f"{'(' if low_open else '['}{low:g}, {high:g}{')' if math.isinf(high) else ']'}"
+        raise ConfigError(f"{where}: {key}={value!r} is outside {interval}")
 
 
 def _task_class(env_id: str) -> Any:

@@ -201,8 +201,11 @@ def _collect(
         outcomes[seed] = SeedOutcome(seed, result=payload)
         progress.update(bars[seed], total=payload.timesteps, completed=payload.timesteps)
         progress.stop_task(bars[seed])
-        state = "interrupted at" if payload.interrupted else "done after" if payload.trained else "nothing to train at"
-        log(f"seed {seed}: {state} {payload.timesteps} steps in {payload.wall_time_s:.0f} s: {payload.model_path}")
+        if payload.interrupted or payload.trained:
+            state = "interrupted at" if payload.interrupted else "done after"
+            log(f"seed {seed}: {state} {payload.timesteps} steps in {payload.wall_time_s:.0f} s: {payload.model_path}")
+        else:
+            log(f"seed {seed}: nothing to train: {payload.model_path} already holds {payload.timesteps} steps")
     elif kind == "failed":
         outcomes[seed] = SeedOutcome(seed, error=payload)
         progress.stop_task(bars[seed])

@@ -128,7 +128,7 @@ def latest_model(run_dir: Path) -> Path | None:
     return next(iter(_models(run_dir)), None)
 
 
-def _resume_source(run_dir: Path, config: TrainConfig) -> Path:
+def resume_source(run_dir: Path, config: TrainConfig) -> Path:
     """The model of ``run_dir`` with the most training steps that loads as ``config``'s algorithm, with its
     normalisation statistics if the config normalises: a checkpoint that an abort cut short (SB3 writes them in
     place) is skipped with a warning. ValueError if none loads."""
@@ -246,7 +246,9 @@ def train(
     """Train ``config`` into the run directory ``out`` (see the module docstring); ``resume`` continues it.
 
     ``callbacks`` run beside the checkpoint, evaluation and Ctrl-C callbacks (progress reports, pruning); setting
-    the event ``stop`` stops the training as Ctrl-C does; ``verbose`` prints SB3's report of each evaluation.
+    the event ``stop`` stops the training as Ctrl-C does; ``verbose`` prints SB3's report of each evaluation;
+    ``command``, the command line that makes the run, goes to ``command.txt`` (a resumed run's replaces the old).
+    A resumed run whose ``model.zip`` already holds ``n_timesteps`` steps is left as it is.
     """
     out = Path(out)
     start = time.perf_counter()
@@ -260,8 +262,10 @@ def train(
     out.mkdir(parents=True, exist_ok=True)
     normalize = config.normalize_kwargs()
     if source is not None:
-        source = _resume_source(out, config)
+        source = resume_source(out, config)
     done = 0 if source is None else saved_timesteps(source)
+    if source is not None and source.name == MODEL_FILE and done >= config.n_timesteps:
+        return _nothing_to_train(out, done)  # the run, its config and its replay buffer stay as they are
     env = make_env(config, config.seed + done)
     eval_env = make_env(config, config.seed + EVAL_SEED_OFFSET, n_envs=1)
     if normalize is not None:
@@ -269,11 +273,12 @@ def train(
         env = VecNormalize.load(str(stats), env) if stats is not None else VecNormalize(env, **normalize)
         eval_env = VecNormalize(eval_env, training=False, norm_reward=False)
     tensorboard_log = str(out / "tb") if importlib.util.find_spec("tensorboard") is not None else None
-    with _replacing(out / CONFIG_FILE) as path:  # a resumed run's too: its new total steps
-        save_resolved(config, path)
+    if source is None or done < config.n_timesteps:  # a resumed run's too: its new total steps
+        with _replacing(out / CONFIG_FILE) as path:
+            save_resolved(config, path)
+    if command is not None:
+        (out / COMMAND_FILE).write_text(command + "\n")
     if source is None:
-        if command is not None:
-            (out / COMMAND_FILE).write_text(command + "\n")
         model = build_model(config, env, tensorboard_log)
     else:
         # SB3's load seeds the env and the global generators again from the model's seed: the new segment's
@@ -352,6 +357,13 @@ def _continue_evaluations(callback: EvalCallback, path: Path, done: int) -> None
         callback.evaluations_length = saved["ep_lengths"][keep].tolist()
         if "successes" in saved:
             callback.evaluations_successes = saved["successes"][keep].tolist()
+
+
+def _nothing_to_train(out: Path, done: int) -> TrainResult:
+    """The result of resuming a run whose ``model.zip`` already holds ``done`` steps, its total or more."""
+    stats_path = out / STATS_FILE
+    wall_time = float(json.loads(stats_path.read_text())["wall_time_s"]) if stats_path.exists() else 0.0
+    return TrainResult(out / MODEL_FILE, done, False, wall_time, resumed_at=done)
 
 
 def _record(out: Path, timesteps: int, interrupted: bool, seconds: float, resumed_at: int) -> TrainResult:

@@ -178,6 +178,7 @@ def test_off_policy_tuple_and_noise_settings(tmp_path: Path) -> None:
         ("  n_timesteps: 1000\n  gamma: -0.5\n", "gamma=-0.5 is outside [0, 1]"),
         ("  n_timesteps: 1000\n  learning_rate: lin_0\n", "learning_rate='lin_0' is outside (0, inf)"),
         ("  n_timesteps: 1000\n  batch_size: 0\n", "batch_size=0 is outside [1, inf)"),
+        ("  n_timesteps: 1000\n  normalize: {gamma: 5.0}\n", "normalize: gamma=5.0 is outside [0, 1]"),
         ("  n_envs: 4\n", "missing key 'n_timesteps'"),
         ("  n_timesteps: 1000\n  noise_type: normal\n", "action noise is for sac and td3"),
         ("  n_timesteps: 1000\n  policy: CnnPolicyX\n", "policy='CnnPolicyX'"),
@@ -399,8 +400,9 @@ def test_train_cli_tiny_budget_produces_a_loadable_model(tmp_path: Path) -> None
     assert again.returncode == 2 and "already holds a training run" in again.stdout
     steps = saved_timesteps(out / "model.zip")
     past = run_cli(*args[:5], "--out", str(out), "--resume", "--timesteps", "128", "--no-progress")
-    assert past.returncode == 0 and f"nothing to train: the run already held {steps} steps" in past.stdout
+    assert past.returncode == 0 and f"nothing to train: {out / 'model.zip'} already holds {steps} steps" in past.stdout
     assert saved_timesteps(out / "model.zip") == steps
+    assert load_resolved(out / "config.yml").n_timesteps == 256  # the run is left as it was
     seeds = run_cli(*args, "--seeds", "1")  # seed_<k>/ runs beside a single run would mix the layouts
     assert seeds.returncode == 2 and "holds a single training run" in seeds.stdout
     assert not (out / "seed_1").exists()
@@ -669,7 +671,10 @@ def test_a_retraining_run_again_resumes_the_partial_runs_of_its_config(
     train(with_overrides(config, {"seed": 0}, "test"), staging / "seed_0", progress_bar=False, verbose=False)
     other = with_overrides(config, {"seed": 1, "learning_rate": 1e-3}, "test")  # the config changed since
     train(other, staging / "seed_1", progress_bar=False, verbose=False)
+    train(with_overrides(config, {"seed": 2}, "test"), staging / "seed_2", progress_bar=False, verbose=False)
+    (staging / "seed_2" / "model.zip").write_bytes(b"PK cut short")  # no model that loads
     (staging / "tb").mkdir()
+    kept = (staging / "seed_0" / "model.zip").read_bytes()  # a PPO rollout (2,048 steps) past the new total
     calls: list[set[int]] = []
 
     def recording(configs: dict, out: Path, **kwargs: Any) -> list[SeedOutcome]:
@@ -681,11 +686,13 @@ def test_a_retraining_run_again_resumes_the_partial_runs_of_its_config(
     monkeypatch.setattr(compare, "train_seeds", recording)
     lines: list[str] = []
     compare.retrain(
-        "vegym/Projectile-v0", tmp_path, ["ppo"], seeds=[0, 1], timesteps=128, progress_bar=False, log=lines.append
+        "vegym/Projectile-v0", tmp_path, ["ppo"], seeds=[0, 1, 2], timesteps=128, progress_bar=False, log=lines.append
     )
     assert calls == [{0}]
-    assert "vegym/Projectile-v0 ppo: resuming the partial runs of seeds [0]" in lines[0]
-    for seed in (0, 1):
+    assert "vegym/Projectile-v0 ppo: discarding seed_1, seed_2, tb in" in lines[0]
+    assert "vegym/Projectile-v0 ppo: resuming the partial runs of seeds [0]" in lines[1]
+    assert (tmp_path / "Projectile-v0" / "ppo" / "seed_0" / "model.zip").read_bytes() == kept
+    for seed in (0, 1, 2):
         run = tmp_path / "Projectile-v0" / "ppo" / f"seed_{seed}"
         assert saved_timesteps(run / "model.zip") >= 128
         assert load_learned(run)[1] == with_overrides(config, {"seed": seed, "n_timesteps": 128}, "test")
@@ -720,8 +727,9 @@ def test_train_seeds_trains_each_seed_and_reports_a_failed_one(tmp_path: Path) -
     assert "seed 1: done after" in resumed.stdout
     steps = saved_timesteps(out / "seed_1" / "model.zip")
     again = run_cli(*resume[:-3], "--seeds", "1,3", "--resume", "--timesteps", "5000", "--no-progress")
-    assert again.returncode == 0 and f"seed 1: nothing to train at {steps} steps" in again.stdout
+    assert again.returncode == 0 and f"already holds {steps} steps" in again.stdout
     assert "seed 3: done after" in again.stdout  # the seeds of one agent share their config, total steps included
+    assert "trained seeds [3]; nothing to train for [1]" in again.stdout
     wrong = run_cli("train", "--env", "Projectile-v0", "--algo", "sac", "--out", str(out), "--seeds", "1", "--resume")
     assert wrong.returncode == 2 and "is ppo on vegym/Projectile-v0, not sac" in wrong.stdout
     name, factories, config = agent_factory(str(out), "vegym/Projectile-v0")
