@@ -29,7 +29,6 @@ from agents.training import (
     CHECKPOINT_DIR,
     CONFIG_FILE,
     EVAL_DIR,
-    latest_model,
     resume_config,
     resume_source,
     seed_dir,
@@ -155,15 +154,13 @@ def partial_runs(staging: Path, configs: Mapping[int, TrainConfig]) -> set[int]:
     resumable = set()
     for seed, config in configs.items():
         run = seed_dir(staging, seed)
-        if not (run / CONFIG_FILE).is_file() or latest_model(run) is None:
-            continue
         try:
             if resume_config(run, config.n_timesteps) != config:
                 continue
             with warnings.catch_warnings():  # a cut-short checkpoint: the resumed run's own warning names it
                 warnings.simplefilter("ignore")
                 resume_source(run, config)
-        except ValueError:  # a config this version no longer reads, or no model that loads
+        except ValueError:  # no run, a config this version no longer reads, or no model that loads
             continue
         resumable.add(seed)
     return resumable

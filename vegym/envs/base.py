@@ -89,8 +89,9 @@ class Task(abc.ABC, Generic[P]):
     def plan_changed(self) -> bool:
         """Whether the planned episode length differs from its default, the registered time limit."""
         name = self.planned_length_param
-        default = next((f.default for f in dataclasses.fields(self.params) if f.name == name), None)
-        return name is not None and self.planned_steps != default
+        if name is None:
+            return False
+        return self.planned_steps != next(f.default for f in dataclasses.fields(self.params) if f.name == name)
 
     def warn_unplanned_length(self, what: str) -> None:
         """Warn that episodes run past the planned length (``what`` says how): they outlive the task's demand
