@@ -43,6 +43,8 @@ CONFIG_DIR = _INSTALLED_CONFIGS if _INSTALLED_CONFIGS.is_dir() else Path(__file_
 """The committed configs, ``<algo>.yml`` for each algorithm: the checkout's ``configs/``, which a wheel installs as
 ``agents/configs/`` (setup.py's build hook)."""
 
+VECTOR_POLICY = "MlpPolicy"
+"""The SB3 policy alias for vegym's observations, flat vectors (CnnPolicy wants images, MultiInputPolicy dicts)."""
 PIPELINE_ARGS = frozenset({"self", "policy", "env", "seed", "policy_kwargs", "tensorboard_log", "verbose"})
 """Constructor arguments the pipeline sets itself (``policy``/``seed``/``policy_kwargs`` are config fields)."""
 
@@ -112,7 +114,7 @@ class TrainConfig:
     """Total env steps of training, over all parallel envs."""
     seed: int = 0
     """Seed of the model and of the training envs (sub-env i starts from seed + i)."""
-    policy: str = "MlpPolicy"
+    policy: str = VECTOR_POLICY
     """SB3 policy alias."""
     n_envs: int = 1
     """Parallel envs; above 1 the env's native vector env runs them in one batch."""
@@ -377,18 +379,19 @@ def config_from_entry(entry: Mapping[str, Any], env_id: str, algo: str, source: 
         raise ConfigError(f"{source}: the entry of {env_id} is {entry!r}, not a mapping of settings")
     cls = ALGOS[algo]
     hints = constructor_hints(cls)
+    settable = [key for key in hints if key not in PIPELINE_ARGS and not key.startswith("_")]
     values: dict[str, Any] = {}
     hyperparams: dict[str, Any] = {}
     for key, value in entry.items():
         where = f"{source}: {env_id}: {key}"
         if key in ENTRY_FIELDS:
             values[key] = coerce(value, FIELD_HINTS[key], where)
-        elif key in hints and key not in PIPELINE_ARGS and not key.startswith("_"):
+        elif key in settable:
             hyperparams[key] = coerce(value, hints[key], where)
         else:
             raise ConfigError(
                 f"{source}: {env_id}: unknown key {key!r}; allowed: {', '.join(ENTRY_FIELDS)} and "
-                f"{cls.__name__} arguments {', '.join(k for k in hints if k not in PIPELINE_ARGS)}"
+                f"{cls.__name__} arguments {', '.join(settable)}"
             )
     if isinstance(values.get("normalize"), dict):
         values["normalize"] = _normalize_kwargs(values["normalize"], f"{source}: {env_id}: normalize")
@@ -414,8 +417,8 @@ def _check(c: TrainConfig, where: str) -> None:
             raise ConfigError(f"{where}: {key}={getattr(c, key)!r} must be at least 1")
     if c.seed < 0:
         raise ConfigError(f"{where}: seed={c.seed!r} must be non-negative")
-    if c.policy not in c.algo_class.policy_aliases:
-        raise ConfigError(f"{where}: policy={c.policy!r}; choose one of {', '.join(c.algo_class.policy_aliases)}")
+    if c.policy != VECTOR_POLICY:
+        raise ConfigError(f"{where}: policy={c.policy!r}; vegym's observations are flat vectors: use {VECTOR_POLICY}")
     if c.noise_type is not None:
         if not issubclass(c.algo_class, OffPolicyAlgorithm):
             raise ConfigError(f"{where}: noise_type={c.noise_type!r}: action noise is for sac and td3, not {c.algo}")
@@ -429,6 +432,7 @@ def _check(c: TrainConfig, where: str) -> None:
     if isinstance(c.normalize, dict):
         for key, value in c.normalize.items():
             _check_range(key, value, value, f"{where}: normalize")
+    _check_batches(c, where)
     policy_hints = constructor_hints(c.algo_class.policy_aliases[c.policy])
     for key, value in c.policy_kwargs.items():
         if key not in policy_hints or key in ("self", "observation_space", "action_space", "lr_schedule"):
@@ -442,6 +446,35 @@ def _check(c: TrainConfig, where: str) -> None:
         env_params(c.env_id, c.env_kwargs)
     except (TypeError, ValueError) as exc:
         raise ConfigError(f"{where}: env_kwargs: {exc}") from None
+
+
+def _setting(c: TrainConfig, key: str) -> Any:
+    """The value of the algorithm's argument ``key`` in ``c``: its own, or the constructor's default."""
+    if key in c.hyperparams:
+        return c.hyperparams[key]
+    return inspect.signature(c.algo_class.__init__).parameters[key].default
+
+
+def _check_batches(c: TrainConfig, where: str) -> None:
+    """ConfigError for the combinations SB3 asserts against when it builds or trains the model: PPO's
+    normalised advantages need more than one sample per rollout and per mini-batch; an off-policy algorithm
+    trains every n >= 1 steps or episodes, episodes only on one env."""
+    if c.algo_class is PPO and _setting(c, "normalize_advantage"):
+        if _setting(c, "batch_size") < 2:
+            raise ConfigError(f"{where}: batch_size={_setting(c, 'batch_size')!r} must be at least 2 for ppo")
+        if _setting(c, "n_steps") * c.n_envs < 2:
+            raise ConfigError(
+                f"{where}: n_steps * n_envs = {_setting(c, 'n_steps')} * {c.n_envs} must be at least 2 for ppo"
+            )
+    if issubclass(c.algo_class, OffPolicyAlgorithm):
+        train_freq = _setting(c, "train_freq")
+        every, unit = tuple(train_freq) if isinstance(train_freq, list | tuple) else (train_freq, "step")
+        if unit not in ("step", "episode"):
+            raise ConfigError(f"{where}: train_freq={train_freq!r}: its unit is 'step' or 'episode', not {unit!r}")
+        if isinstance(every, int) and every < 1:
+            raise ConfigError(f"{where}: train_freq={train_freq!r} must train every 1 or more {unit}s")
+        if unit == "episode" and c.n_envs > 1:
+            raise ConfigError(f"{where}: train_freq={train_freq!r} counts episodes, which needs n_envs: 1")
 
 
 def _check_range(key: str, number: Any, value: Any, where: str) -> None:
@@ -481,12 +514,19 @@ def make_kwargs(env_id: str, env_kwargs: Mapping[str, Any]) -> dict[str, Any]:
 
 
 class _UniqueKeyLoader(yaml.SafeLoader):
-    """PyYAML's safe loader refusing a key given twice in one mapping (PyYAML keeps the last one silently)."""
+    """PyYAML's safe loader refusing a key given twice in one mapping (PyYAML keeps the last one silently). Merge
+    keys (``<<: *defaults``, as RL Zoo's files use them) still merge: a key written in the mapping overrides a
+    merged one."""
+
+
+_MERGE_TAG = "tag:yaml.org,2002:merge"
 
 
 def _unique_mapping(loader: _UniqueKeyLoader, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
     seen = set()
     for key_node, _ in node.value:
+        if key_node.tag == _MERGE_TAG:
+            continue  # construct_mapping merges it
         key = loader.construct_object(key_node, deep=deep)
         if not isinstance(key, Hashable):
             continue  # construct_mapping refuses it
@@ -528,7 +568,9 @@ def load_config(
     if not isinstance(data, Mapping) or env_id not in data:
         entries = ", ".join(map(str, data)) if isinstance(data, Mapping) else "none"
         raise ConfigError(f"{path}: no entry for {env_id}; entries: {entries}")
-    entry = {**data[env_id], **(overrides or {})}
+    entry = data[env_id]
+    if isinstance(entry, Mapping):  # else config_from_entry refuses it
+        entry = {**entry, **(overrides or {})}
     return config_from_entry(entry, env_id, algo or path.stem, str(path))
 
 

@@ -35,7 +35,7 @@ from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback,
 from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv, VecMonitor, VecNormalize
 
-from agents.config import TrainConfig, load_resolved, make_kwargs, save_resolved, with_overrides
+from agents.config import ConfigError, TrainConfig, load_resolved, make_kwargs, save_resolved, with_overrides
 from agents.vec_adapter import VectorEnvAdapter
 
 MODEL_FILE = "model.zip"
@@ -273,19 +273,22 @@ def train(
         env = VecNormalize.load(str(stats), env) if stats is not None else VecNormalize(env, **normalize)
         eval_env = VecNormalize(eval_env, training=False, norm_reward=False)
     tensorboard_log = str(out / "tb") if importlib.util.find_spec("tensorboard") is not None else None
-    if source is None or done < config.n_timesteps:  # a resumed run's too: its new total steps
-        with _replacing(out / CONFIG_FILE) as path:
-            save_resolved(config, path)
-    if command is not None:
-        (out / COMMAND_FILE).write_text(command + "\n")
     if source is None:
-        model = build_model(config, env, tensorboard_log)
+        try:
+            model = build_model(config, env, tensorboard_log)
+        except AssertionError as exc:  # SB3 checks some settings by assertion; config.py refuses those it knows
+            raise ConfigError(f"{config.algo} refuses the settings of {config.env_id}: {exc}") from None
     else:
         # SB3's load seeds the env and the global generators again from the model's seed: the new segment's
         # seed, or it would replay the first segment's episodes and random draws
         model = config.algo_class.load(source, env=env, tensorboard_log=tensorboard_log, seed=config.seed + done)
         if isinstance(model, OffPolicyAlgorithm):
             _restore_replay_buffer(model, config, out, source)
+    if source is None or done < config.n_timesteps:  # a resumed run's too: its new total steps
+        with _replacing(out / CONFIG_FILE) as path:
+            save_resolved(config, path)
+    if command is not None:
+        (out / COMMAND_FILE).write_text(command + "\n")
     stopper = StopOnInterrupt(stop)
     evaluation = EvalCallback(
         eval_env,
