@@ -11,10 +11,12 @@ from __future__ import annotations
 
 import multiprocessing as mp
 import queue
+import signal
 import time
 import traceback
 from collections.abc import Callable, Collection, Sequence
 from dataclasses import dataclass
+from multiprocessing import resource_tracker
 from multiprocessing.process import BaseProcess
 from pathlib import Path
 from typing import Any
@@ -79,6 +81,7 @@ def _train_seed(
     """Worker process: train one seed, then put ``("done", seed, result)`` or ``("failed", seed, error)``; setting
     the event ``stop`` stops it as Ctrl-C does."""
     try:
+        _block_sigint(False)  # a Ctrl-C that came while this process started is raised here
         torch.set_num_threads(threads)
         result = train(
             config,
@@ -157,9 +160,13 @@ def train_seeds(
                     command = (commands or {}).get(seed)
                     args = (configs[seed], seed_dir(out, seed), seed in resumed, command, threads, channel, stop)
                     process = context.Process(target=_train_seed, args=args, name=f"vegym-train-seed-{seed}")
-                    process.start()
-                    running[seed] = process
-                    pending.pop(0)
+                    _block_sigint(True)  # inherited: the worker's imports run before it can handle a Ctrl-C
+                    try:
+                        process.start()
+                        running[seed] = process
+                        pending.pop(0)
+                    finally:
+                        _block_sigint(False)  # here a Ctrl-C that came meanwhile is raised, the worker known
                     progress.start_task(bars[seed])
                     log(f"seed {seed}: training into {seed_dir(out, seed)}")
                 _collect(channel, running, outcomes, progress, bars, log)
@@ -174,6 +181,17 @@ def train_seeds(
         for seed in pending:
             outcomes[seed] = SeedOutcome(seed, error=NOT_STARTED)
     return [outcomes[s] for s in configs]
+
+
+def _block_sigint(block: bool) -> None:
+    """Block SIGINT in this thread, or unblock it (a pending one is then handled); nothing where signal masks are
+    not available. A process started while it is blocked starts with it blocked: its Ctrl-C waits until
+    :func:`_train_seed` can report the seed as not started, instead of ending the process in its imports."""
+    if not hasattr(signal, "pthread_sigmask"):
+        return
+    if block:  # multiprocessing starts its resource tracker with the first process, then unblocks SIGINT
+        resource_tracker.ensure_running()
+    signal.pthread_sigmask(signal.SIG_BLOCK if block else signal.SIG_UNBLOCK, {signal.SIGINT})
 
 
 def _raise_keyboard_interrupt(signum: int, frame: Any) -> None:
@@ -209,7 +227,7 @@ def _collect(
     elif kind == "failed":
         outcomes[seed] = SeedOutcome(seed, error=payload)
         progress.stop_task(bars[seed])
-        log(f"seed {seed}: FAILED: {payload.splitlines()[0]}")
+        log(f"seed {seed}: {payload}" if payload == NOT_STARTED else f"seed {seed}: FAILED: {payload.splitlines()[0]}")
     for s, process in list(running.items()):
         if process.exitcode is None:
             continue

@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import json
+import os
+import re
 import signal
 import subprocess
 import sys
@@ -178,6 +180,9 @@ def test_off_policy_tuple_and_noise_settings(tmp_path: Path) -> None:
         ("  n_timesteps: 1000\n  gamma: -0.5\n", "gamma=-0.5 is outside [0, 1]"),
         ("  n_timesteps: 1000\n  learning_rate: lin_0\n", "learning_rate='lin_0' is outside (0, inf)"),
         ("  n_timesteps: 1000\n  batch_size: 0\n", "batch_size=0 is outside [1, inf)"),
+        ("  n_timesteps: 1000\n  batch_size: 1\n", "batch_size=1 must be at least 2 for ppo"),
+        ("  n_timesteps: 1000\n  n_steps: 1\n  n_envs: 1\n", "n_steps * n_envs = 1 * 1 must be at least 2"),
+        ("  n_timesteps: 1000\n  policy: CnnPolicy\n", "flat vectors: use MlpPolicy"),
         ("  n_timesteps: 1000\n  normalize: {gamma: 5.0}\n", "normalize: gamma=5.0 is outside [0, 1]"),
         ("  n_envs: 4\n", "missing key 'n_timesteps'"),
         ("  n_timesteps: 1000\n  noise_type: normal\n", "action noise is for sac and td3"),
@@ -215,6 +220,50 @@ def test_config_file_errors(tmp_path: Path) -> None:
     twice_nested = "vegym/BouncingBall-v0:\n  n_timesteps: 10\n  policy_kwargs: {net_arch: [64], net_arch: [8]}\n"
     with pytest.raises(ConfigError, match="duplicate key 'net_arch'"):
         load_configs(write_config(tmp_path, twice_nested))
+
+
+@pytest.mark.parametrize(
+    ("entry", "message"),
+    [
+        ("  train_freq: [1, episode]\n  n_envs: 2\n", "counts episodes, which needs n_envs: 1"),
+        ("  train_freq: [2, epsiode]\n", "its unit is 'step' or 'episode', not 'epsiode'"),
+        ("  train_freq: 0\n", "train_freq=0 must train every 1 or more steps"),
+    ],
+)
+def test_off_policy_training_frequencies_sb3_asserts_against_are_config_errors(
+    tmp_path: Path, entry: str, message: str
+) -> None:
+    path = write_config(tmp_path, "vegym/Projectile-v0:\n  n_timesteps: 1000\n" + entry, "td3.yml")
+    with pytest.raises(ConfigError, match=re.escape(message)):
+        load_config(path, "vegym/Projectile-v0")
+
+
+def test_a_model_sb3_refuses_to_build_is_a_config_error_that_leaves_no_files(tmp_path: Path, monkeypatch: Any) -> None:
+    config = load_config(CONFIG_DIR / "ppo.yml", "vegym/Projectile-v0")
+
+    def refuse(*args: Any, **kwargs: Any) -> None:
+        raise AssertionError("`batch_size` must be greater than 1")
+
+    monkeypatch.setattr("agents.training.build_model", refuse)
+    with pytest.raises(ConfigError, match="ppo refuses the settings of vegym/Projectile-v0: `batch_size` must"):
+        train(config, tmp_path / "run", progress_bar=False, command="vegym train")
+    assert list((tmp_path / "run").iterdir()) == []
+
+
+def test_yaml_merge_keys_merge_and_a_written_key_overrides_a_merged_one(tmp_path: Path) -> None:
+    text = (
+        "defaults: &defaults\n  n_timesteps: 1000\n  n_steps: 64\n  gamma: 0.9\n"
+        "vegym/Projectile-v0:\n  <<: *defaults\n  gamma: 0.5\n"
+    )
+    config = load_config(write_config(tmp_path, text), "vegym/Projectile-v0")
+    assert (config.n_timesteps, config.hyperparams) == (1000, {"n_steps": 64, "gamma": 0.5})
+
+
+@pytest.mark.parametrize("entry", ["", " 5"])
+def test_an_entry_that_is_not_a_mapping_is_a_config_error(tmp_path: Path, entry: str) -> None:
+    path = write_config(tmp_path, f"vegym/Projectile-v0:{entry}\n")
+    with pytest.raises(ConfigError, match="the entry of vegym/Projectile-v0 is .*, not a mapping of settings"):
+        load_config(path, "vegym/Projectile-v0", overrides={"seed": 3})
 
 
 # --- the VecEnv adapter --------------------------------------------------------------------------------------------
@@ -577,6 +626,33 @@ def test_an_interrupt_to_the_parent_alone_stops_the_seeds_and_says_how_to_go_on(
     )
     assert json.loads((out / "seed_0" / "train_stats.json").read_text())["interrupted"] is True
     assert not (out / "seed_1").exists()
+
+
+def test_a_ctrl_c_while_the_seeds_start_reports_them_not_started_and_says_how_to_train_them(tmp_path: Path) -> None:
+    """A terminal's Ctrl-C (SIGINT to the whole process group) that lands while the workers still import torch:
+    no worker dies with a traceback, and every seed is to be trained again."""
+    config = write_config(tmp_path, "vegym/BouncingBall-v0:\n  n_timesteps: 1e7\n  n_steps: 64\n  batch_size: 64\n")
+    out = tmp_path / "agent"
+    args = ["train", "--env", "BouncingBall-v0", "--algo", "ppo", "--config", str(config), "--out", str(out)]
+    proc = subprocess.Popen(
+        [*VEGYM, *args, "--seeds", "0,1", "--jobs", "2", "--no-progress"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        start_new_session=True,  # a process group of its own, as a terminal's job
+    )
+    assert proc.stdout is not None
+    lines = [proc.stdout.readline() for _ in range(3)]  # the plan, then each seed's start
+    assert lines[2].startswith("seed 1: training into"), lines
+    os.killpg(proc.pid, signal.SIGINT)
+    stdout, stderr = proc.communicate(timeout=120)
+    assert proc.returncode == 130, stdout + stderr
+    assert "Traceback" not in stderr and "FAILED" not in stdout, stdout + stderr
+    assert "seeds [0, 1] did not start" in stdout
+    assert (
+        f"train the others with: vegym train --env BouncingBall-v0 --algo ppo --out {out} --config {config} "
+        "--seeds 0,1" in stdout
+    )
 
 
 # --- compare and the CLI -------------------------------------------------------------------------------------------
