@@ -13,6 +13,7 @@ from pathlib import Path
 
 import gymnasium as gym
 from rich.console import Console
+from rich.measure import Measurement
 from rich.table import Table
 from rich.text import Text
 
@@ -51,13 +52,18 @@ def _non_negative(text: str) -> int:
 
 
 def _print_table(title: str, columns: Sequence[str], rows: Sequence[Sequence[str]], wrap: int = 1) -> None:
-    """A table whose last ``wrap`` columns wrap; the others keep their cells on one line."""
+    """A table whose last ``wrap`` columns wrap in a terminal; the others keep their cells on one line. Into a pipe
+    or file, at its full width: nothing is cut short."""
     table = Table(title=title)
     for k, column in enumerate(columns):
         table.add_column(column, no_wrap=k < len(columns) - wrap)
     for row in rows:
         table.add_row(*(Text(cell) for cell in row))
-    console.print(table)
+    if console.is_terminal:
+        console.print(table)
+    else:  # print's width cannot exceed its console's
+        width = Measurement.get(console, console.options.update_width(sys.maxsize), table).maximum
+        Console(highlight=False, width=max(width, console.width)).print(table)
 
 
 def cmd_list(args: argparse.Namespace) -> int:

@@ -24,7 +24,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 
 import vegym
 from agents import compare
-from agents.cli import main
+from agents.cli import _print_table, main
 from agents.config import (
     ALGOS,
     CONFIG_DIR,
@@ -831,6 +831,12 @@ def test_every_command_has_help(command: str, capsys: pytest.CaptureFixture[str]
         main([command, "--help"])
     assert caught.value.code == 0
     assert f"usage: vegym {command}" in capsys.readouterr().out
+
+
+def test_a_table_printed_into_a_pipe_keeps_every_cell_whole(capsys: pytest.CaptureFixture[str]) -> None:
+    metrics = "episode_length=300.000, altitude_rmse_m=82.965, airspeed_rmse_mps=5.624, heading_rmse_deg=36.272"
+    _print_table("t", ["env", "score", "control metrics"], [["vegym/AircraftGusty-v0 " * 4, "1.000 " * 12, metrics]])
+    assert metrics in capsys.readouterr().out  # a terminal of 160 columns would wrap it or cut it short
 
 
 def test_list_shows_every_env(capsys: pytest.CaptureFixture[str]) -> None:
