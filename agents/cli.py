@@ -5,8 +5,10 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import shlex
 import sys
+import tempfile
 import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
@@ -201,13 +203,23 @@ def _train_seeds(args: argparse.Namespace, env_id: str, out: Path) -> int:
     return 1 if failed else 0
 
 
-def _check_output(path: Path, suffix: str | None = None) -> None:
+def _check_output(path: Path, suffix: str | None = None, makes_parents: bool = False) -> None:
     """Refuse an output file that could not be written (or not in the format of ``suffix``), before the work that
-    makes it (ValueError)."""
+    makes it (ValueError); ``makes_parents``: its writer creates missing directories."""
     if suffix is not None and path.suffix.lower() != suffix:
         raise ValueError(f"{path}: the file name must end in {suffix}")
-    if path.is_dir() or not path.parent.is_dir():
-        raise ValueError(f"{path}: {'it is a directory' if path.is_dir() else f'no directory {path.parent}'}")
+    if path.is_dir():
+        raise ValueError(f"{path}: it is a directory")
+    folder = next(p for p in path.parents if p.exists()) if makes_parents else path.parent
+    if not folder.is_dir():
+        raise ValueError(f"{path}: no directory {folder}")
+    try:
+        if path.exists():
+            path.open("a").close()  # appends nothing
+        else:
+            tempfile.TemporaryFile(dir=folder).close()
+    except OSError as exc:
+        raise ValueError(f"{path}: cannot be written ({exc.strerror})") from None
 
 
 def cmd_evaluate(args: argparse.Namespace) -> int:
@@ -280,6 +292,8 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
     env_id = vegym.resolve_env_id(args.env)
     study_name = args.study or f"{env_name(env_id)}-{args.algo}"
+    out = Path(args.best) if args.best else SWEEPS_DIR / f"{study_name}_best.yml"
+    _check_output(out, makes_parents=True)
     settings = SweepSettings(
         env_id=env_id,
         algo=args.algo,
@@ -299,7 +313,6 @@ def cmd_sweep(args: argparse.Namespace) -> int:
     study = sweep(settings, args.workers, args.threads, log=say)
     finished = study.get_trials(deepcopy=False, states=FINISHED)
     say(f"{len(finished)} trials finished in the study ({time.perf_counter() - start:.0f} s in this command)")
-    out = Path(args.best) if args.best else SWEEPS_DIR / f"{study_name}_best.yml"
     say(write_best_config(study, settings, out).rstrip())
     train_it = shlex.join(["vegym", "train", "--env", env_name(env_id), "--algo", args.algo, "--config", str(out)])
     say(f"wrote {out}: train it with `{train_it}`")
@@ -322,6 +335,7 @@ def cmd_demo(args: argparse.Namespace) -> int:
         save_episode_gif(env_id, factory, args.seed, Path(args.gif), env_kwargs)
         say(f"wrote {args.gif}")
         return 0
+    _check_display()
     env = gym.make(env_id, render_mode="human", **make_kwargs(env_id, env_kwargs))
     try:
         agent = factory(env)
@@ -332,6 +346,22 @@ def cmd_demo(args: argparse.Namespace) -> int:
     finally:
         env.close()
     return 0
+
+
+HEADLESS_VIDEO_DRIVERS = ("offscreen", "dummy")
+"""SDL's video drivers that show nothing, which it falls back to where no display is found."""
+
+
+def _check_display() -> None:
+    """ValueError where SDL finds no display to open a window on (unless ``SDL_VIDEODRIVER`` asks for one that
+    shows nothing); the display is started here, as the window would start it."""
+    import pygame
+
+    pygame.display.init()
+    driver = pygame.display.get_driver()
+    if driver in HEADLESS_VIDEO_DRIVERS and "SDL_VIDEODRIVER" not in os.environ:
+        pygame.display.quit()
+        raise ValueError(f"no display to show the episodes on (SDL fell back to {driver!r}); write a GIF with --gif")
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -451,7 +481,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--env", required=True, help=env_help)
     p.add_argument("--agent", default="analytic", help=agent_help)
-    p.add_argument("--episodes", type=_positive, default=1, help="episodes to show (default 1)")
+    p.add_argument("--episodes", type=_positive, default=1, help="episodes to show (default 1; --gif writes one)")
     p.add_argument("--seed", type=_non_negative, default=0, help="seed of the first episode (default 0)")
     p.add_argument("--gif", help="write one episode to this GIF instead of opening a window")
     p.set_defaults(func=cmd_demo)

@@ -869,6 +869,19 @@ def test_bad_input_is_a_clear_error(tmp_path: Path, capsys: pytest.CaptureFixtur
     a_file.write_text("")
     assert main(["train", "--env", "Projectile-v0", "--algo", "ppo", "--out", str(a_file), "--timesteps", "64"]) == 1
     assert "error: [Errno 17] File exists" in capsys.readouterr().out
+    assert main(["evaluate", "--env", "Projectile-v0", "--episodes", "2", "--json", "/proc/x.json"]) == 2
+    assert "/proc/x.json: cannot be written" in capsys.readouterr().out
+    storage = f"sqlite:///{tmp_path / 's.db'}"
+    sweep = ["sweep", "--env", "Projectile-v0", "--algo", "ppo", "--trials", "1", "--storage", storage]
+    assert main([*sweep, "--best", str(tmp_path)]) == 2  # refused before the study, not after it
+    assert f"{tmp_path}: it is a directory" in capsys.readouterr().out and not (tmp_path / "s.db").exists()
+
+
+def test_demo_without_a_display_says_to_write_a_gif(monkeypatch: Any, capsys: pytest.CaptureFixture[str]) -> None:
+    for name in ("DISPLAY", "WAYLAND_DISPLAY", "SDL_VIDEODRIVER"):
+        monkeypatch.delenv(name, raising=False)
+    assert main(["demo", "--env", "Projectile-v0"]) == 2
+    assert "no display to show the episodes on" in capsys.readouterr().out
 
 
 def test_demo_writes_a_gif(tmp_path: Path) -> None:
