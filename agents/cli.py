@@ -21,7 +21,14 @@ from rich.text import Text
 
 import vegym
 from agents.config import ALGOS, CONFIG_DIR, ConfigError, TrainConfig, load_config, make_kwargs
-from agents.evaluation import EVAL_SEED, REFERENCE_AGENTS, agent_factory, evaluate_agents, run_episode
+from agents.evaluation import (
+    EVAL_SEED,
+    REFERENCE_AGENTS,
+    agent_factory,
+    evaluate_agents,
+    run_episode,
+    short_runs,
+)
 from vegym import env_name
 
 console = Console(highlight=False, width=None if sys.stdout.isatty() else 160)
@@ -230,6 +237,9 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     if args.json:
         _check_output(Path(args.json))
     name, factory, config = agent_factory(args.agent, env_id, args.seed)
+    if config is not None:
+        for line in short_runs(Path(args.agent)):
+            say(f"note: {line} (an interrupted run; `vegym train --resume` goes on)", "yellow")
     env_kwargs = config.env_kwargs if config is not None else {}
     results = evaluate_agents(env_id, {name: factory}, args.episodes, args.seed, env_kwargs)
     record = next(r.record() for r in results if r.agent == name)

@@ -22,7 +22,15 @@ from pathlib import Path
 from typing import Any
 
 from agents.config import ALGOS, CONFIG_DIR, TrainConfig, load_config, read_yaml, save_resolved
-from agents.evaluation import EVAL_SEED, EvalResult, SeededFactories, agent_factories, evaluate_agents, load_seeded
+from agents.evaluation import (
+    EVAL_SEED,
+    EvalResult,
+    SeededFactories,
+    agent_factories,
+    evaluate_agents,
+    load_seeded,
+    short_runs,
+)
 from agents.multiseed import seed_configs, train_seeds
 from agents.plots import save_episode_gif, save_score_chart, save_trajectory_plot
 from agents.training import (
@@ -301,6 +309,9 @@ def compare(
             notes.append(f"{name}: {_missing_note(env_id, models_dir, algos)}")
             log(notes[-1])
         factories, env_kwargs = _learned(runs, env_id)
+        for line in (line for path in runs.values() for line in short_runs(path)):
+            notes.append(f"{name}: {line}")
+            log(f"note: {notes[-1]}")
         log(f"{name}: evaluating {', '.join(agent_factories(env_id, factories, seed))} on {episodes} episodes")
         results = evaluate_agents(env_id, factories, episodes, seed, env_kwargs)
         records += [r.record() for r in results]

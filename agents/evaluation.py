@@ -32,7 +32,7 @@ from agents.analytic import (
 )
 from agents.config import TrainConfig, load_resolved, make_kwargs
 from agents.statistics import ScoreSummary, summarize
-from agents.training import CONFIG_FILE, MODEL_FILE, normalize_path, seed_runs
+from agents.training import CONFIG_FILE, MODEL_FILE, normalize_path, saved_timesteps, seed_runs
 
 EVAL_SEED = 1000
 """First episode seed of evaluations; training uses small seeds, so the episodes differ."""
@@ -84,12 +84,7 @@ def load_learned(path: Path) -> tuple[LearnedAgent, TrainConfig]:
     model_path = path / MODEL_FILE if path.is_dir() else path
     if not model_path.is_file():
         raise ValueError(f"agent {str(path)!r}: no such model (expected a run directory or a .zip)")
-    config_path = next(
-        (d / CONFIG_FILE for d in (model_path.parent, model_path.parent.parent) if (d / CONFIG_FILE).is_file()), None
-    )
-    if config_path is None:
-        raise ValueError(f"agent {str(path)!r}: no {CONFIG_FILE} beside the model or one level up")
-    config = load_resolved(config_path)
+    config = _model_config(model_path)
     model = config.algo_class.load(model_path, device="cpu")
     normalizer = None
     if config.normalize_kwargs() is not None:
@@ -100,6 +95,28 @@ def load_learned(path: Path) -> tuple[LearnedAgent, TrainConfig]:
         normalizer = VecNormalize.load(str(stats), dummy)
         normalizer.training = False
     return LearnedAgent(model, normalizer), config
+
+
+def _model_config(model_path: Path) -> TrainConfig:
+    """The resolved config of a model zip: ``config.yml`` beside it or one level up (checkpoints)."""
+    folders = (model_path.parent, model_path.parent.parent)
+    config_path = next((d / CONFIG_FILE for d in folders if (d / CONFIG_FILE).is_file()), None)
+    if config_path is None:
+        raise ValueError(f"agent {str(model_path)!r}: no {CONFIG_FILE} beside the model or one level up")
+    return load_resolved(config_path)
+
+
+def short_runs(path: Path) -> list[str]:
+    """A line for each model of the agent at ``path`` (a model zip, a run directory or a directory of
+    ``seed_<k>/`` runs) that holds fewer steps than its config's total: an interrupted or checkpointed run."""
+    path = Path(path)
+    models = [path] if path.is_file() else [run / MODEL_FILE for run in seed_runs(path).values()]
+    lines = []
+    for model in models:
+        steps, total = saved_timesteps(model), _model_config(model).n_timesteps
+        if steps < total:
+            lines.append(f"{model} holds {steps} of its config's {total} training steps")
+    return lines
 
 
 def load_seeded(agent_dir: Path) -> tuple[dict[int, AgentFactory], TrainConfig]:

@@ -8,6 +8,7 @@ import re
 import signal
 import subprocess
 import sys
+import threading
 import time
 import zipfile
 from pathlib import Path
@@ -527,6 +528,19 @@ def test_an_abort_while_saving_leaves_the_last_complete_model(tmp_path: Path, mo
         train(resume_config(out, 128), out, resume=True, progress_bar=False)
     assert (out / "model.zip").read_bytes() == saved
     assert sorted(p.name for p in out.iterdir() if p.name.startswith(".")) == []  # no partial file left
+
+
+def test_evaluating_an_interrupted_run_notes_the_steps_it_lacks(tmp_path: Path, capsys: Any) -> None:
+    entry = "vegym/Projectile-v0:\n  n_timesteps: 1024\n  n_envs: 4\n  n_steps: 16\n  batch_size: 64\n"
+    config = load_config(write_config(tmp_path, entry), "vegym/Projectile-v0")
+    stop = threading.Event()
+    stop.set()  # as a Ctrl-C does
+    out = tmp_path / "run"
+    result = train(config, out, progress_bar=False, stop=stop)
+    assert result.interrupted and result.timesteps < 1024
+    assert main(["evaluate", "--env", "Projectile-v0", "--agent", str(out), "--episodes", "1"]) == 0
+    note = f"note: {out / 'model.zip'} holds {result.timesteps} of its config's 1024 training steps"
+    assert note in capsys.readouterr().out
 
 
 def test_resume_skips_a_model_cut_short_and_goes_on_from_the_newest_that_reads(tmp_path: Path) -> None:
