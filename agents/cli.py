@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import shlex
 import sys
@@ -129,7 +130,10 @@ def cmd_train(args: argparse.Namespace) -> int:
     else:
         config = _load_train_config(args, env_id, args.seed)
     command = shlex.join(["vegym", *args.argv]) if not args.resume else None
-    say(f"training {config.algo} on {config.env_id} for {config.n_timesteps} steps into {out}")
+    planned, step = f"{config.n_timesteps} steps", config.collection_steps
+    if step and config.n_timesteps % step and not args.resume:
+        planned += f" ({math.ceil(config.n_timesteps / step) * step}: SB3 collects {step} steps at a time)"
+    say(f"training {config.algo} on {config.env_id} for {planned} into {out}")
     result = train(config, out, resume=args.resume, progress_bar=not args.no_progress, command=command)
     if result.interrupted:
         say(f"interrupted at {result.timesteps} steps; saved {result.model_path}; continue with --resume")
@@ -406,7 +410,11 @@ def build_parser() -> argparse.ArgumentParser:
         help="train one model per seed, e.g. 0,1,2, into OUT/seed_<k> (processes in parallel, see --jobs)",
     )
     p.add_argument("--jobs", type=_positive, default=2, help="with --seeds: seeds trained at once (default 2)")
-    p.add_argument("--timesteps", type=_positive, help="total env steps (default: the config's n_timesteps)")
+    p.add_argument(
+        "--timesteps",
+        type=_positive,
+        help="total env steps (default: the config's n_timesteps), rounded up to whole rollouts",
+    )
     p.add_argument("--out", help="run directory (default: runs/<Env-v0>/<algo>)")
     p.add_argument("--resume", action="store_true", help="continue the run in --out (with --seeds: every seed's)")
     p.add_argument("--threads", type=_positive, default=1, help=threads_help)

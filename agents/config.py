@@ -142,6 +142,16 @@ class TrainConfig:
         """The SB3 algorithm class."""
         return ALGOS[self.algo]
 
+    @property
+    def collection_steps(self) -> int | None:
+        """Env steps SB3 collects between updates, all envs together: PPO's rollout (``n_steps * n_envs``), an
+        off-policy algorithm's ``train_freq`` steps on every env; None where ``train_freq`` counts episodes. SB3
+        trains whole collections: a fresh run of ``n_timesteps`` trains it rounded up to a multiple of them."""
+        if self.algo_class is PPO:
+            return _setting(self, "n_steps") * self.n_envs
+        every, unit = _train_freq(self)
+        return every * self.n_envs if unit == "step" else None
+
     def to_entry(self) -> dict[str, Any]:
         """The flat YAML entry that loads back into this config, with ``env_id`` and ``algo`` (a run's record: RL
         Zoo's keys plus vegym's, not an RL Zoo file)."""
@@ -455,6 +465,12 @@ def _setting(c: TrainConfig, key: str) -> Any:
     return inspect.signature(c.algo_class.__init__).parameters[key].default
 
 
+def _train_freq(c: TrainConfig) -> tuple[Any, Any]:
+    """An off-policy config's ``train_freq`` as ``(every, unit)``."""
+    train_freq = _setting(c, "train_freq")
+    return tuple(train_freq) if isinstance(train_freq, list | tuple) else (train_freq, "step")
+
+
 def _check_batches(c: TrainConfig, where: str) -> None:
     """ConfigError for the combinations SB3 asserts against when it builds or trains the model: PPO's
     normalised advantages need more than one sample per rollout and per mini-batch; an off-policy algorithm
@@ -468,7 +484,7 @@ def _check_batches(c: TrainConfig, where: str) -> None:
             )
     if issubclass(c.algo_class, OffPolicyAlgorithm):
         train_freq = _setting(c, "train_freq")
-        every, unit = tuple(train_freq) if isinstance(train_freq, list | tuple) else (train_freq, "step")
+        every, unit = _train_freq(c)
         if unit not in ("step", "episode"):
             raise ConfigError(f"{where}: train_freq={train_freq!r}: its unit is 'step' or 'episode', not {unit!r}")
         if isinstance(every, int) and every < 1:

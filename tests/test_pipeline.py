@@ -530,6 +530,17 @@ def test_an_abort_while_saving_leaves_the_last_complete_model(tmp_path: Path, mo
     assert sorted(p.name for p in out.iterdir() if p.name.startswith(".")) == []  # no partial file left
 
 
+def test_a_run_trains_its_total_rounded_up_to_whole_collections(tmp_path: Path) -> None:
+    entry = "vegym/Projectile-v0:\n  n_timesteps: 100\n  n_envs: 4\n  n_steps: 16\n  batch_size: 64\n"
+    config = load_config(write_config(tmp_path, entry), "vegym/Projectile-v0")
+    assert config.collection_steps == 64
+    assert train(config, tmp_path / "run", progress_bar=False).timesteps == 128
+    off_policy = "vegym/Projectile-v0:\n  n_timesteps: 100\n  n_envs: 2\n  train_freq: [3, step]\n"
+    assert load_config(write_config(tmp_path, off_policy, "td3.yml"), "vegym/Projectile-v0").collection_steps == 6
+    episodes = "vegym/Projectile-v0:\n  n_timesteps: 100\n  train_freq: [3, episode]\n"
+    assert load_config(write_config(tmp_path, episodes, "sac.yml"), "vegym/Projectile-v0").collection_steps is None
+
+
 def test_evaluating_an_interrupted_run_notes_the_steps_it_lacks(tmp_path: Path, capsys: Any) -> None:
     entry = "vegym/Projectile-v0:\n  n_timesteps: 1024\n  n_envs: 4\n  n_steps: 16\n  batch_size: 64\n"
     config = load_config(write_config(tmp_path, entry), "vegym/Projectile-v0")
