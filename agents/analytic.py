@@ -10,6 +10,7 @@ or native vector).
 from __future__ import annotations
 
 import abc
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -101,16 +102,19 @@ class BouncingBallOracle:
 
     Not an observation-only controller: it reads the episode key of a single env at each episode start,
     derives the episode's targets (they do not depend on the actions) and follows
-    :func:`~vegym.envs.bouncing_ball.optimal_apexes`. It is the upper bound agents are measured against.
+    :func:`~vegym.envs.bouncing_ball.optimal_apexes`. It is the upper bound agents are measured against. Its plan
+    spans the episode's planned bounces (``episode_bounces``, or the env's shorter time limit); past them it aims at
+    the current target, as :class:`BouncingBallMyopic`.
     """
 
     def __init__(self, env: Any, episode_length: int | None = None) -> None:
+        """``episode_length``: the bounces to plan (default the episode's)."""
         if not isinstance(env.unwrapped, VegymEnv):
             raise ValueError(f"BouncingBallOracle reads one episode's targets: it needs a single env, not {env!r}")
         self.env = env.unwrapped
-        spec_length = env.spec.max_episode_steps if env.spec is not None else None
-        self.episode_length = int(episode_length or spec_length or 10)
         self.params: BouncingBallParams = self.env.params
+        limit = env.spec.max_episode_steps if env.spec is not None else None
+        self.episode_length = int(episode_length or min(self.params.episode_bounces, limit or math.inf))
         self._plan = np.zeros(0)
 
     def predict(
@@ -128,8 +132,11 @@ class BouncingBallOracle:
         if step == 0:
             targets = self.env.task.targets(self.env.state["key"], self.episode_length)[0]
             self._plan = optimal_apexes(targets, p.drop_height, p.radius)
-        target = (self._plan[step] - p.radius) / p.height_scale
-        action = restitution_action(obs.reshape(-1)[:1], np.array([target]))
+        row = obs.reshape(1, -1)
+        if step < len(self._plan):
+            action = restitution_action(row[:, 0], np.array([(self._plan[step] - p.radius) / p.height_scale]))
+        else:  # an episode that outlives its plan (the env warns): the current target, as the myopic law
+            action = restitution_action(row[:, 0], row[:, 2])
         return np.full((*obs.shape[:-1], 1), action[0, 0], dtype=np.float32), state
 
 

@@ -220,6 +220,19 @@ def test_oracle_acts_for_one_single_env_and_refuses_batches_and_vector_envs() ->
         BouncingBallOracle(gym.make_vec(ENV_ID, num_envs=4, vectorization_mode="vector_entry_point"))
 
 
+def test_oracle_plans_the_planned_bounces_and_acts_past_them() -> None:
+    assert BouncingBallOracle(gym.make(ENV_ID, episode_bounces=5)).episode_length == 5
+    assert BouncingBallOracle(gym.make(ENV_ID, max_episode_steps=4)).episode_length == 4  # cut by the time limit
+    env = gym.make(ENV_ID, episode_bounces=15, max_episode_steps=-1)
+    oracle = BouncingBallOracle(env)
+    assert oracle.episode_length == 15
+    obs, _ = env.reset(seed=1)
+    with pytest.warns(UserWarning, match="the task plans episodes of episode_bounces=15"):
+        for _ in range(20):
+            obs, _, terminated, _, _ = env.step(oracle.predict(obs)[0])
+            assert not terminated
+
+
 @pytest.mark.parametrize("controller_cls", [BouncingBallMyopic, BouncingBallPlanner])
 def test_controllers_predict_batches_like_single_observations(controller_cls: type) -> None:
     env = gym.make_vec(ENV_ID, num_envs=16, vectorization_mode="vector_entry_point")
