@@ -411,6 +411,10 @@ def test_vector_seeds_span_uint64_and_none_leaves_a_sub_env_unseeded() -> None:
     for bad in (2**64 - 2, [1, 2, 2**64], [1, -1, 2], [1.5, 2, 3]):
         with pytest.raises(ValueError, match="seed"):
             vec.reset(seed=bad)
+    np.testing.assert_array_equal(vec.reset(seed=np.int64(5))[0], vec.reset(seed=5)[0])  # numpy integers too
+    for bad in ("5", 5.0, True):
+        with pytest.raises(TypeError, match="expected an int or a list"):
+            vec.reset(seed=bad)
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)

@@ -22,7 +22,7 @@ import numbers
 import os
 import sys
 import types
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any, ClassVar, Generic, TypeVar
 
@@ -803,10 +803,13 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         """Keys of sub-env seeds ``seed + i``, or of a list of one seed per sub-env, where None leaves that sub-env
         unseeded (as SyncVectorEnv does): its key drawn from ``np_random``."""
         n = self.num_envs
-        if isinstance(seed, int):
+        if isinstance(seed, numbers.Integral) and not isinstance(seed, bool):  # numpy integers too
+            seed = int(seed)
             if not 0 <= seed <= 2**64 - n:
                 raise ValueError(f"seed={seed} gives sub-env seeds seed + i outside [0, 2**64) for num_envs={n}")
             return rng.seed_keys(np.uint64(seed) + np.arange(n, dtype=np.uint64))
+        if isinstance(seed, str) or not isinstance(seed, Sequence | np.ndarray):
+            raise TypeError(f"seed={seed!r}: expected an int or a list of num_envs={n} ints or None")
         if len(seed) != n:
             raise ValueError(f"seed has {len(seed)} entries; expected num_envs={n}")
         seeded = np.array([s is not None for s in seed], dtype=bool)
