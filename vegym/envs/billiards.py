@@ -452,8 +452,10 @@ class BilliardsEnv(VegymEnv[BilliardsParams]):
     ``required_speed``, the fastest ghost-ball strike any episode needs (2.30 m/s with the defaults).
 
     ## Episode End
-    Terminated after the strike (one step). ``info["is_success"]``: B rests within ``target_radius`` of the
-    target.
+    Terminated after the strike (one step). The registered time limit of one step reports ``truncated`` on that
+    step too (Gymnasium's TimeLimit, as the native vector env); ``terminated`` is the end that counts: no state
+    follows the strike to bootstrap from (SB3 reads it so). ``info["is_success"]``: B rests within
+    ``target_radius`` of the target.
 
     ## Arguments
     ``gymnasium.make("vegym/Billiards-v0", render_mode=None, **params)`` with the fields of

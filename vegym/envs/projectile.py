@@ -404,7 +404,9 @@ class ProjectileEnv(VegymEnv[ProjectileEnvParams]):
     lowest launch height (with the defaults 64.7 m >= 60 m).
 
     ## Episode End
-    Terminated after the shot (one step). ``info["is_success"]``: the shot is a hit.
+    Terminated after the shot (one step). The registered time limit of one step reports ``truncated`` on that
+    step too (Gymnasium's TimeLimit, as the native vector env); ``terminated`` is the end that counts: no state
+    follows the shot to bootstrap from (SB3 reads it so). ``info["is_success"]``: the shot is a hit.
 
     ## Arguments
     ``gymnasium.make("vegym/Projectile-v0", render_mode=None, **params)`` with the fields of
