@@ -621,22 +621,22 @@ def _ignore_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # as for a background job of a script
 
 
-@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["sigint_come_in_ignored", "sigterm"])
-def test_an_interrupt_to_the_parent_alone_stops_the_seeds_and_says_how_to_go_on(tmp_path: Path, signum: int) -> None:
-    """The parent passes SIGINT or SIGTERM on to its workers, also where it started with SIGINT ignored (a script's
-    background job); the workers print no evaluation reports of their own between the parent's lines."""
+def start_two_seeds(tmp_path: Path, jobs: int, **popen: Any) -> tuple[subprocess.Popen, Path, Path]:
+    """``vegym train --seeds 0,1`` of a long BouncingBall run, started; the process, its config and its --out."""
     config = write_config(
         tmp_path, "vegym/BouncingBall-v0:\n  n_timesteps: 1e7\n  n_steps: 64\n  batch_size: 64\n  save_freq: 256\n"
     )
     out = tmp_path / "agent"
     args = ["train", "--env", "BouncingBall-v0", "--algo", "ppo", "--config", str(config), "--out", str(out)]
-    proc = subprocess.Popen(
-        [*VEGYM, *args, "--seeds", "0,1", "--jobs", "1", "--no-progress"],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        preexec_fn=_ignore_sigint,
-    )
+    command = [*VEGYM, *args, "--seeds", "0,1", "--jobs", str(jobs), "--no-progress"]
+    return subprocess.Popen(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, **popen), config, out
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM], ids=["sigint_come_in_ignored", "sigterm"])
+def test_an_interrupt_to_the_parent_alone_stops_the_seeds_and_says_how_to_go_on(tmp_path: Path, signum: int) -> None:
+    """The parent passes SIGINT or SIGTERM on to its workers, also where it started with SIGINT ignored (a script's
+    background job); the workers print no evaluation reports of their own between the parent's lines."""
+    proc, config, out = start_two_seeds(tmp_path, jobs=1, preexec_fn=_ignore_sigint)
     deadline = time.monotonic() + 120
     while not list((out / "seed_0" / "checkpoints").glob("model_*_steps.zip")) and time.monotonic() < deadline:
         time.sleep(0.2)
@@ -656,16 +656,7 @@ def test_an_interrupt_to_the_parent_alone_stops_the_seeds_and_says_how_to_go_on(
 def test_a_ctrl_c_while_the_seeds_start_reports_them_not_started_and_says_how_to_train_them(tmp_path: Path) -> None:
     """A terminal's Ctrl-C (SIGINT to the whole process group) that lands while the workers still import torch:
     no worker dies with a traceback, and every seed is to be trained again."""
-    config = write_config(tmp_path, "vegym/BouncingBall-v0:\n  n_timesteps: 1e7\n  n_steps: 64\n  batch_size: 64\n")
-    out = tmp_path / "agent"
-    args = ["train", "--env", "BouncingBall-v0", "--algo", "ppo", "--config", str(config), "--out", str(out)]
-    proc = subprocess.Popen(
-        [*VEGYM, *args, "--seeds", "0,1", "--jobs", "2", "--no-progress"],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        start_new_session=True,  # a process group of its own, as a terminal's job
-    )
+    proc, config, out = start_two_seeds(tmp_path, jobs=2, start_new_session=True)  # a group of its own, as a job's
     assert proc.stdout is not None
     lines = [proc.stdout.readline() for _ in range(3)]  # the plan, then each seed's start
     assert lines[2].startswith("seed 1: training into"), lines
