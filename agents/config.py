@@ -149,7 +149,7 @@ class TrainConfig:
         trains whole collections: a fresh run of ``n_timesteps`` trains it rounded up to a multiple of them."""
         if self.algo_class is PPO:
             return _setting(self, "n_steps") * self.n_envs
-        every, unit = _train_freq(self)
+        every, unit = _train_freq(_setting(self, "train_freq"))
         return every * self.n_envs if unit == "step" else None
 
     def to_entry(self) -> dict[str, Any]:
@@ -465,9 +465,8 @@ def _setting(c: TrainConfig, key: str) -> Any:
     return inspect.signature(c.algo_class.__init__).parameters[key].default
 
 
-def _train_freq(c: TrainConfig) -> tuple[Any, Any]:
-    """An off-policy config's ``train_freq`` as ``(every, unit)``."""
-    train_freq = _setting(c, "train_freq")
+def _train_freq(train_freq: Any) -> tuple[Any, Any]:
+    """An off-policy ``train_freq`` setting (``every`` or ``(every, unit)``) as ``(every, unit)``."""
     return tuple(train_freq) if isinstance(train_freq, list | tuple) else (train_freq, "step")
 
 
@@ -476,15 +475,14 @@ def _check_batches(c: TrainConfig, where: str) -> None:
     normalised advantages need more than one sample per rollout and per mini-batch; an off-policy algorithm
     trains every n >= 1 steps or episodes, episodes only on one env."""
     if c.algo_class is PPO and _setting(c, "normalize_advantage"):
-        if _setting(c, "batch_size") < 2:
-            raise ConfigError(f"{where}: batch_size={_setting(c, 'batch_size')!r} must be at least 2 for ppo")
-        if _setting(c, "n_steps") * c.n_envs < 2:
-            raise ConfigError(
-                f"{where}: n_steps * n_envs = {_setting(c, 'n_steps')} * {c.n_envs} must be at least 2 for ppo"
-            )
+        batch_size, n_steps = _setting(c, "batch_size"), _setting(c, "n_steps")
+        if batch_size < 2:
+            raise ConfigError(f"{where}: batch_size={batch_size!r} must be at least 2 for ppo")
+        if n_steps * c.n_envs < 2:
+            raise ConfigError(f"{where}: n_steps * n_envs = {n_steps} * {c.n_envs} must be at least 2 for ppo")
     if issubclass(c.algo_class, OffPolicyAlgorithm):
         train_freq = _setting(c, "train_freq")
-        every, unit = _train_freq(c)
+        every, unit = _train_freq(train_freq)
         if unit not in ("step", "episode"):
             raise ConfigError(f"{where}: train_freq={train_freq!r}: its unit is 'step' or 'episode', not {unit!r}")
         if isinstance(every, int) and every < 1:
