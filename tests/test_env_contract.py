@@ -417,6 +417,24 @@ def test_vector_seeds_span_uint64_and_none_leaves_a_sub_env_unseeded() -> None:
             vec.reset(seed=bad)
 
 
+def test_vector_reset_mask_is_held_to_sync_vector_env_rules() -> None:
+    """A reset mask that SyncVectorEnv refuses is refused alike, so code written against one runs on the other."""
+    env_id = "vegym/BouncingBall-v0"
+    bad_masks = (
+        ([True, False, False], TypeError),
+        (np.array([1, 0, 0]), TypeError),
+        (np.array([True, False]), ValueError),
+        (np.zeros(3, dtype=bool), ValueError),
+    )
+    for mode in ("sync", "vector_entry_point"):
+        vec = gym.make_vec(env_id, num_envs=3, vectorization_mode=mode)
+        vec.reset(seed=1)
+        for mask, error in bad_masks:
+            with pytest.raises(error, match="reset_mask"):
+                vec.reset(options={"reset_mask": mask})
+        vec.reset(options={"reset_mask": np.array([False, True, False])})
+
+
 @pytest.mark.parametrize("env_id", ENV_IDS)
 def test_threaded_chunks_step_exactly_as_one_chunk(env_id: str, monkeypatch: pytest.MonkeyPatch) -> None:
     n = 64

@@ -819,9 +819,14 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         return keys
 
     def _reset_masked(self, seed: int | list[int] | None, mask: Any) -> tuple[np.ndarray, Info]:
-        mask = np.asarray(mask)
-        if mask.dtype != np.bool_ or mask.shape != (self.num_envs,):
-            raise ValueError(f"reset_mask must be a bool array of shape ({self.num_envs},); got {mask!r}")
+        """Reset the sub-envs of ``mask``, which SyncVectorEnv's rules hold to: a numpy bool array of shape
+        ``(num_envs,)`` with at least one True (TypeError for another type or dtype, ValueError otherwise)."""
+        if not isinstance(mask, np.ndarray) or mask.dtype != np.bool_:
+            raise TypeError(f"reset_mask must be a numpy bool array of shape ({self.num_envs},); got {mask!r}")
+        if mask.shape != (self.num_envs,) or not mask.any():
+            raise ValueError(
+                f"reset_mask must have shape ({self.num_envs},) and a True entry; got {mask!r}, shape {mask.shape}"
+            )
         if self.state is None:
             raise gym.error.ResetNeeded("Call reset() without reset_mask before a masked reset.")
         keys = rng.next_key(self.state["key"][mask]) if seed is None else self._seed_keys(seed)[mask]
