@@ -293,7 +293,8 @@ def compare(
     progress_bar: bool = True,
     log: Callable[[str], None] = print,
 ) -> tuple[list[dict[str, Any]], list[str]]:
-    """Evaluate and draw every env of ``env_ids``; write the files into ``out``; return the records and notes."""
+    """Evaluate and draw every env of ``env_ids``; write the files into ``out``, rewritten after each env (a later
+    env's failure keeps the earlier ones' results); return the records and notes."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     records: list[dict[str, Any]] = []
@@ -323,7 +324,8 @@ def compare(
                 factory = next(iter(factory.values()))
             save_episode_gif(env_id, factory, seed, out / f"{name}_{agent}.gif", env_kwargs)
             images.append(f"{name}_{agent}.gif")
-    (out / "compare.json").write_text(json.dumps(records, indent=2) + "\n")
-    save_score_chart(records, out / "normalized_scores.png")
-    (out / "compare.md").write_text(markdown(records, notes, images, episodes, seed))
+        # after every env, so that a failure or Ctrl-C in a later one keeps the evaluations done
+        (out / "compare.json").write_text(json.dumps(records, indent=2) + "\n")
+        save_score_chart(records, out / "normalized_scores.png")
+        (out / "compare.md").write_text(markdown(records, notes, images, episodes, seed))
     return records, notes

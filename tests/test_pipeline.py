@@ -841,6 +841,26 @@ def test_compare_without_learned_agents_says_so(tmp_path: Path) -> None:
     assert "Projectile-v0: no learned sac agent" in (out / "compare.md").read_text()
 
 
+def test_compare_keeps_the_envs_evaluated_before_a_later_one_fails(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    evaluate_for_real = compare.evaluate_agents
+
+    def fail_on_the_second_env(env_id: str, *args: Any, **kwargs: Any) -> Any:
+        if env_id == "vegym/BouncingBall-v0":
+            raise KeyboardInterrupt
+        return evaluate_for_real(env_id, *args, **kwargs)
+
+    monkeypatch.setattr(compare, "evaluate_agents", fail_on_the_second_env)
+    out = tmp_path / "out"
+    with pytest.raises(KeyboardInterrupt):
+        compare.compare(["vegym/Projectile-v0", "vegym/BouncingBall-v0"], out, episodes=2, models_dir=tmp_path)
+    records = json.loads((out / "compare.json").read_text())
+    assert {r["env_id"] for r in records} == {"vegym/Projectile-v0"}
+    assert "Projectile-v0_analytic.gif" in (out / "compare.md").read_text()
+    assert (out / "normalized_scores.png").is_file()
+
+
 @pytest.mark.parametrize("command", ["list", "train", "evaluate", "compare", "sweep", "demo"])
 def test_every_command_has_help(command: str, capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit) as caught:
