@@ -39,6 +39,7 @@ def test_gear_teeth_keep_their_pitch_up_to_a_cap() -> None:
         ("vegym/GearTrain-v0", {"radius_min": 1000.0, "radius_max": 1000.0}),
         ("vegym/SteerableWheel-v0", {"arena_size": 1e7}),
         ("vegym/BouncingBall-v0", {"drop_height": 1e7}),
+        ("vegym/Billiards-v0", {"target_radius": 1e5}),
     ],
 )
 def test_huge_scenes_draw_their_frames(env_id: str, params: dict) -> None:
@@ -47,6 +48,28 @@ def test_huge_scenes_draw_their_frames(env_id: str, params: dict) -> None:
     env.step(env.action_space.sample())
     frame = env.render()
     assert frame.dtype == np.uint8 and frame.ndim == 3 and frame.shape[2] == 3
+
+
+@pytest.mark.parametrize(("radius", "width"), [(27, 0), (27, 3), (40, 3), (40, 0), (80, 60), (1e7, 2)])
+@pytest.mark.parametrize("center", [(20, 15), (3, 28)])
+def test_circles_around_the_whole_surface_draw_the_pixels_pygame_draws(
+    center: tuple[int, int], radius: float, width: int
+) -> None:
+    """One pixel per metre, y up: the shortcut for a circle around the whole surface (fill it, or nothing inside a
+    ring's hole) draws what pygame's circle draws, which takes it seconds for a huge circle."""
+    import pygame
+
+    def panel() -> canvas.Panel:
+        return canvas.Panel(canvas.new_surface(40, 30), (0, 0, 40, 30), (0.0, 40.0, 0.0, 30.0))
+
+    shortcut = panel()
+    shortcut.circle(center, radius, canvas.RED, width)
+    if radius < 1e3:
+        direct = panel()
+        pygame.draw.circle(direct.surface, canvas.RED, direct.to_px(*center), round(radius), width)
+        np.testing.assert_array_equal(canvas.to_array(shortcut.surface), canvas.to_array(direct.surface))
+    else:
+        assert not (canvas.to_array(shortcut.surface) == canvas.RED).all(axis=2).any()
 
 
 def test_frames_still_draw_after_pygame_quit_elsewhere() -> None:

@@ -6,6 +6,7 @@ Nothing here opens a window; :mod:`vegym.render.window` does that for ``render_m
 from __future__ import annotations
 
 import itertools
+import math
 from collections.abc import Sequence
 
 import numpy as np
@@ -101,7 +102,19 @@ class Panel:
             self.line(p[i], p[i + 1], color)
 
     def circle(self, center: Sequence[float], radius: float, color: Color, width: int = 0) -> None:
-        pygame.draw.circle(self.surface, color, self.to_px(*center), self.length_px(radius), width)
+        """A disc, or a ring ``width`` pixels wide inside ``radius``. One around the whole surface is drawn as
+        what shows of it (pygame walks every row of a circle: seconds for millions of pixels)."""
+        px, py = self.to_px(*center)
+        pixels = self.length_px(radius)
+        w, h = self.surface.get_size()
+        farthest_corner = math.hypot(max(px, w - px), max(py, h - py))
+        if pixels > farthest_corner + 1:  # the surface lies inside the circle
+            if width <= 0:
+                self.surface.fill(color)
+                return
+            if pixels - width > farthest_corner + 1:  # and inside the ring's hole
+                return
+        pygame.draw.circle(self.surface, color, (px, py), pixels, width)
 
     def dot(self, center: Sequence[float], pixels: int, color: Color) -> None:
         pygame.draw.circle(self.surface, color, self.to_px(*center), pixels)
