@@ -396,22 +396,29 @@ def test_vector_info_masks_are_one_read_only_array() -> None:
 
 
 def test_vector_seeds_span_uint64_and_none_leaves_a_sub_env_unseeded() -> None:
-    """As SyncVectorEnv: any seed in [0, 2**64), and a list entry None draws that sub-env's episode at random."""
+    """As SyncVectorEnv: any seed in [0, 2**64), and a list entry None leaves that sub-env unseeded: its next
+    episode, as the single env's reset() starts it, or a random one before any seed."""
     env_id = "vegym/BouncingBall-v0"
     vec = gym.make_vec(env_id, num_envs=3, vectorization_mode="vector_entry_point")
     single = gym.make(env_id)
-    obs, _ = vec.reset(seed=2**63)
-    np.testing.assert_array_equal(obs[1], single.reset(seed=2**63 + 1)[0])
     first, _ = vec.reset(seed=[5, None, 2**64 - 1])
     np.testing.assert_array_equal(first[0], single.reset(seed=5)[0])
     np.testing.assert_array_equal(first[2], single.reset(seed=2**64 - 1)[0])
-    again, _ = vec.reset(seed=[5, None, 2**64 - 1])
-    np.testing.assert_array_equal(again[[0, 2]], first[[0, 2]])
-    assert not np.array_equal(again[1], first[1])  # the targets are drawn at random: equal with probability ~0
+    fresh = gym.make_vec(env_id, num_envs=3, vectorization_mode="vector_entry_point")
+    assert not np.array_equal(fresh.reset(seed=[5, None, 2**64 - 1])[0][1], first[1])  # equal with probability ~0
+    obs, _ = vec.reset(seed=2**63)
+    np.testing.assert_array_equal(obs[1], single.reset(seed=2**63 + 1)[0])
+    for options in ({}, {"reset_mask": np.array([False, True, False])}):
+        vec.reset(seed=2**63)
+        again, _ = vec.reset(seed=[5, None, 7], options=options)
+        np.testing.assert_array_equal(again[1], single.reset()[0])
+        single.reset(seed=2**63 + 1)
     for bad in (2**64 - 2, [1, 2, 2**64], [1, -1, 2], [1.5, 2, 3]):
         with pytest.raises(ValueError, match="seed"):
             vec.reset(seed=bad)
-    np.testing.assert_array_equal(vec.reset(seed=np.int64(5))[0], vec.reset(seed=5)[0])  # numpy integers too
+    np.testing.assert_array_equal(vec.reset(seed=np.int64(6))[0], vec.reset(seed=6)[0])  # numpy integers too
+    vec.reset(seed=np.int64(5))
+    assert vec.np_random_seed == 5
     for bad in ("5", 5.0, True):
         with pytest.raises(TypeError, match="expected an int or a list"):
             vec.reset(seed=bad)

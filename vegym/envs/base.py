@@ -784,7 +784,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             mask = np.ones(self.num_envs, dtype=bool)
         if mask is not None:
             return self._reset_masked(seed, mask)
-        super().reset(seed=seed if isinstance(seed, int) else None)
+        super().reset(seed=int(seed) if isinstance(seed, numbers.Integral) and not isinstance(seed, bool) else None)
         if seed is None:
             keys = self.np_random.integers(0, 2**64, size=self.num_envs, dtype=np.uint64)
         else:
@@ -801,7 +801,8 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
 
     def _seed_keys(self, seed: int | list[int | None]) -> np.ndarray:
         """Keys of sub-env seeds ``seed + i``, or of a list of one seed per sub-env, where None leaves that sub-env
-        unseeded (as SyncVectorEnv does): its key drawn from ``np_random``."""
+        unseeded, as SyncVectorEnv does: its next episode, as ``reset()`` would start it (its first drawn from
+        ``np_random``)."""
         n = self.num_envs
         if isinstance(seed, numbers.Integral) and not isinstance(seed, bool):  # numpy integers too
             seed = int(seed)
@@ -813,7 +814,12 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         if len(seed) != n:
             raise ValueError(f"seed has {len(seed)} entries; expected num_envs={n}")
         seeded = np.array([s is not None for s in seed], dtype=bool)
-        keys = np.empty(n, np.uint64) if seeded.all() else self.np_random.integers(0, 2**64, n, np.uint64)
+        if seeded.all():
+            keys = np.empty(n, np.uint64)
+        elif self.state is None:
+            keys = self.np_random.integers(0, 2**64, n, np.uint64)
+        else:
+            keys = rng.next_key(self.state["key"])
         if seeded.any():
             keys[seeded] = rng.seed_keys([s for s in seed if s is not None])
         return keys
