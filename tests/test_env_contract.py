@@ -808,6 +808,14 @@ def test_vector_env_takes_numpy_counts_and_refuses_non_integer_ones() -> None:
             vector_cls(**{"num_envs": 2, name: bad})
 
 
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_every_parameter_is_listed_with_its_default_in_the_env_docstrings_arguments(env_id: str) -> None:
+    env_cls = type(gym.make(env_id).unwrapped)
+    arguments = env_cls.__doc__.split("## Arguments")[1].split("## Version History")[0]
+    for field in dataclasses.fields(env_cls.task_cls.params_cls):
+        assert f"* {field.name} (default {field.default!r} in " in arguments, field.name
+
+
 def test_infinite_bounds_are_allowed_only_where_a_parameter_says_so() -> None:
     from vegym.physics.aircraft import AircraftParams
 

@@ -126,12 +126,32 @@ class Params:
 
     @classmethod
     def describe(cls) -> str:
-        """One line per field: name, default, allowed range, description (for docstrings and the CLI)."""
+        """One line per field: name, default, allowed range, description (listed in each env's docstring)."""
         lines = []
         for f in dataclasses.fields(cls):  # type: ignore[arg-type]
             rng = f" in {interval_text(f.metadata)}" if "low" in f.metadata else ""
             lines.append(f"{f.name} (default {f.default!r}{rng}): {f.metadata.get('doc', '')}")
         return "\n".join(lines)
+
+
+def with_arguments(doc: str, params_cls: type[Params]) -> str:
+    """``doc`` with :meth:`Params.describe`'s lines added as a list to its ``## Arguments`` section (unchanged
+    without one)."""
+    lines = doc.splitlines()
+    header = next((i for i, line in enumerate(lines) if line.strip() == "## Arguments"), None)
+    if header is None:
+        return doc
+    indent = lines[header][: len(lines[header]) - len(lines[header].lstrip())]
+    end = next((i for i in range(header + 1, len(lines)) if lines[i].lstrip().startswith("## ")), len(lines))
+    while not lines[end - 1].strip():
+        end -= 1
+    listed = [
+        "",
+        f"{indent}The parameters (default, allowed range; limits that depend on other parameters are checked too):",
+        "",
+        *(f"{indent}* {line}" for line in params_cls.describe().splitlines()),
+    ]
+    return "\n".join([*lines[:end], *listed, *lines[end:]])
 
 
 def invalid(name: str, value: Any, allowed: str) -> ValueError:

@@ -35,7 +35,7 @@ from numba import njit
 
 from vegym import rng
 from vegym.envs.kernel_call import bind_kernel
-from vegym.params import Params
+from vegym.params import Params, with_arguments
 
 P = TypeVar("P", bound=Params)
 State = dict[str, np.ndarray]
@@ -519,6 +519,12 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
     task_cls: ClassVar[type[Task]]
     metadata: ClassVar[dict[str, Any]] = {"render_modes": ["human", "rgb_array"], "render_fps": 1}
 
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        """List the task's parameters in the subclass's ``## Arguments`` section."""
+        super().__init_subclass__(**kwargs)
+        if "task_cls" in cls.__dict__ and cls.__doc__:
+            cls.__doc__ = with_arguments(cls.__doc__, cls.task_cls.params_cls)
+
     def __init__(self, render_mode: str | None = None, **params: Any) -> None:
         self.task = self.task_cls(self.task_cls.params_cls.of(**params))
         self.params: P = self.task.params  # type: ignore[assignment]
@@ -870,7 +876,8 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         episodes do so every other step): then its outputs are zeros. Resetting rows then start fresh episodes
         and report reward 0, not terminated, not truncated, and masked-out infos: every ``_name`` mask is the
         same read-only array, False for those rows, whose info values are left over from the discarded step
-        (SyncVectorEnv fills them with zeros; read infos through the masks).
+        (SyncVectorEnv fills them with zeros; read infos through the masks). Every row's action is checked, a
+        resetting row's too (SyncVectorEnv ignores theirs): a NaN or inf anywhere raises ``ValueError``.
         """
         state = self.state
         if state is None:
