@@ -425,9 +425,10 @@ class BilliardsEnv(VegymEnv[BilliardsParams]):
     at ``u_b = (1 + e) m_a w / (m_a + m_b)`` (8.60) and A is deflected (8.61). The table adds one thing to the
     chapter: each ball slides in a straight line with the constant deceleration ``deceleration`` (the cloth's
     rolling resistance), so a ball at speed v stops ``v^2 / (2 a)`` further on. A starts at the origin and B at
-    a random distance and bearing; the target lies at a random distance from B within ``bearing_max`` of the
-    line A-B (a cut of at most that much). One step is one strike; the balls meet at most once (a second
-    contact after the impact is not modelled) and there are no cushions.
+    a random distance and bearing; the target lies at a random distance from B within ``bearing_max`` of the line
+    A-B. The cut it needs is larger, since A is aimed off that line (at the defaults up to 67 degrees for a bearing
+    of 57; ``largest_bearing`` is where it reaches 90). One step is one strike; the balls meet at most once (a
+    second contact after the impact is not modelled) and there are no cushions.
 
     ## Action Space
     ``Box(-1, 1, (2,), float32)``: ``a0`` is the sine of the cut angle, i.e. the offset of B's centre from A's

@@ -490,8 +490,9 @@ class BouncingBallEnv(VegymEnv[BouncingBallParams]):
     ## Starting State
     Ball released at rest from ``drop_height``. The first target is uniform in ``[target_min, target_max]``;
     each next one is the previous times a ratio uniform in ``[target_ratio_min, target_ratio_max]``, clipped
-    to that range: mostly descending, with rises a planner must save energy for. Targets depend on the
-    episode seed only, never on the actions.
+    to that range: a random walk that rises about as often as it falls (at the defaults, 47% and 49% of the
+    steps), each rise reachable only with energy saved on earlier bounces. Targets depend on the episode seed
+    only, never on the actions.
 
     ## Episode End
     Terminated when the ball comes to rest (rebound speed below ``rest_speed``, e.g. e = 0); truncated after
@@ -509,9 +510,10 @@ class BouncingBallEnv(VegymEnv[BouncingBallParams]):
     Another episode length takes both ``episode_bounces=N`` and ``max_episode_steps=N``: the task plans for
     ``episode_bounces``, and ``max_episode_steps`` alone only moves the time limit. A shorter one cuts episodes,
     whose rest charge still counts the planned bounces; a longer one outlives the plan and warns (a vector env when
-    made, a single env at the step past the plan). ``episode_bounces`` alone keeps the registered time limit, which
-    then cuts its episodes: a vector env warns when made, a single env cannot see its limit (``vegym``
-    train, evaluate and compare make it the time limit).
+    made, a single env at the step past the plan).
+    ``episode_bounces`` alone keeps the registered time limit, with the same effects: it cuts a longer plan and is
+    outlived by a shorter one. A vector env warns when made; a single env cannot see its limit and warns only at a step
+    past its plan (``vegym`` train, evaluate and compare make the plan the time limit).
 
     ## Version History
     * v0: initial version.

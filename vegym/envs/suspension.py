@@ -325,9 +325,10 @@ class SuspensionEnv(VegymEnv[SuspensionParams]):
     Another episode length takes both ``episode_steps=N`` and ``max_episode_steps=N``: the task plans for
     ``episode_steps``, and ``max_episode_steps`` alone only moves the time limit. A shorter one cuts episodes, whose
     bump-stop charge still counts the planned steps; a longer one outlives the plan and warns (a vector env when
-    made, a single env at the step past the plan). ``episode_steps`` alone keeps the registered time limit, which
-    then cuts its episodes: a vector env warns when made, a single env cannot see its limit (``vegym``
-    train, evaluate and compare make it the time limit).
+    made, a single env at the step past the plan).
+    ``episode_steps`` alone keeps the registered time limit, with the same effects: it cuts a longer plan and is
+    outlived by a shorter one. A vector env warns when made; a single env cannot see its limit and warns only at a step
+    past its plan (``vegym`` train, evaluate and compare make the plan the time limit).
 
     ## Version History
     * v0: initial version.

@@ -37,7 +37,9 @@ class ThreadEnvParams(Params):
     pluck_max: float = param(
         0.1, "largest pluck height (m); the unit of observed displacements", low=0.0, low_open=True
     )
-    pluck_margin: float = param(0.2, "the pluck point is at least this fraction of the span from an end", low=0.0)
+    pluck_margin: float = param(
+        0.2, "the pluck point is at least this fraction of the span from an end", low=0.0, high=0.5, high_open=True
+    )
     velocity_scale: float = param(3.0, "node speed of a full unit of observation (m/s)", low=0.0, low_open=True)
     settle_fraction: float = param(
         0.01,
@@ -54,8 +56,6 @@ class ThreadEnvParams(Params):
             raise invalid("n_actuators", self.n_actuators, f"[1, n_nodes={self.n_nodes}]")
         if self.pluck_min > self.pluck_max:
             raise invalid("pluck_min", self.pluck_min, f"(0, pluck_max={self.pluck_max}]")
-        if not self.pluck_margin < 0.5:
-            raise invalid("pluck_margin", self.pluck_margin, "[0, 0.5)")
         try:
             rest = thread.static_equilibrium(self.physics)
         except RuntimeError as error:  # a thread far too slack (natural_length=300 m, say)
@@ -103,8 +103,8 @@ class ThreadEnvParams(Params):
     @property
     def actuated(self) -> np.ndarray:
         """0-based indices of the actuated nodes: ``(k + 1)(N + 1)/(K + 1)`` (1-based) rounded toward the middle,
-        so the set is mirror symmetric (3, 5, 7 of 9 at the defaults) unless N is even and K odd, where the middle
-        actuator has no middle node and takes the one on its right."""
+        so the set is mirror symmetric (indices 2, 4, 6 at the defaults: nodes 3, 5, 7 of 9) unless N is even and
+        K odd, where the middle actuator has no middle node and takes the one on its right."""
         middle = 0.5 * (self.n_nodes + 1)
         at = (np.arange(self.n_actuators) + 1) * (self.n_nodes + 1) / (self.n_actuators + 1)
         return np.where(at > middle, np.ceil(at - 0.5), np.floor(at + 0.5)).astype(np.int64) - 1
@@ -341,8 +341,8 @@ class ThreadEnv(VegymEnv[ThreadEnvParams]):
 
     ## Action Space
     ``Box(-1, 1, (2 K,), float32)`` for K = ``n_actuators``: the force ``(u_x, u_y) = max_force (a_2k, a_2k+1)``
-    (N) on actuated node k (nodes 3, 5 and 7 of 9 at the defaults, the ``actuated`` property of the parameters),
-    held over the step.
+    (N) on actuated node k (nodes 3, 5 and 7 of 9 counted from 1 at the defaults; their 0-based indices, 2, 4
+    and 6, are the ``actuated`` property of the parameters), held over the step.
 
     ## Observation Space
     ``Box(low, 1, (4 N + 1,), float32)``: each node's displacement from the rest shape, ``(x, y)`` over
