@@ -10,7 +10,7 @@ import pytest
 
 import vegym  # noqa: F401
 from agents.analytic import ThreadVelocityFeedback, controller_for
-from vegym.envs.thread import ThreadEnvParams
+from vegym.envs.thread import MOST_SUBSTEPS, ThreadEnvParams
 from vegym.physics import thread
 
 ENV_ID = "vegym/Thread-v0"
@@ -210,9 +210,30 @@ def test_the_smallest_pluck_named_in_the_error_is_about_the_one_that_passes(sett
         ThreadEnvParams(pluck_min=0.8 * named, settle_fraction=settle_fraction)
 
 
+@pytest.mark.parametrize(("name", "far_beyond"), [("stiffness", 1e9), ("drag", 1e7)])
+def test_a_thread_needing_more_than_the_most_substeps_is_refused_at_the_bound_the_error_names(
+    name: str, far_beyond: float
+) -> None:
+    """drag=1e7 took 2.3 s per step (ten million substeps): refused, naming the largest value that is taken."""
+    with pytest.raises(ValueError, match=rf"{name}=.* is outside the allowed range .*, ([0-9.e+]+)\] for") as error:
+        ThreadEnvParams(**{name: far_beyond})
+    bound = float(re.search(r", ([0-9.e+]+)\] for", str(error.value)).group(1))
+    assert thread.substeps(0.01, ThreadEnvParams(**{name: 0.999 * bound}).physics) <= MOST_SUBSTEPS
+    with pytest.raises(ValueError, match=name):
+        ThreadEnvParams(**{name: 1.001 * bound})
+
+
 @pytest.mark.parametrize(
     "kwargs",
-    [{"n_nodes": 64}, {"span": 0.2}, {"natural_length": 1.0}, {"natural_length": 100.0}, {"stiffness": 0.5}],
+    [
+        {"n_nodes": 64},
+        {"span": 0.2},
+        {"natural_length": 1.0},
+        {"natural_length": 100.0},
+        {"stiffness": 0.5},
+        {"stiffness": 4e7},
+        {"drag": 900.0},
+    ],
 )
 def test_far_from_default_threads_keep_finite_observations_and_rewards(kwargs: dict) -> None:
     env = gym.make_vec(ENV_ID, num_envs=16, vectorization_mode="vector_entry_point", **kwargs)

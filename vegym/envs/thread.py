@@ -17,6 +17,9 @@ from vegym.physics.particle import STANDARD_GRAVITY
 from vegym.physics.thread import ThreadParams
 
 _PLUCK_STREAM = 1
+MOST_SUBSTEPS = 1000
+"""Most substeps per control step: a thread needing more (stiffness or drag far beyond a thread's, a step of
+seconds) is refused, since it would step thousands of times slower than at the defaults (3)."""
 
 
 @dataclass(frozen=True)
@@ -56,6 +59,13 @@ class ThreadEnvParams(Params):
             raise invalid("n_actuators", self.n_actuators, f"[1, n_nodes={self.n_nodes}]")
         if self.pluck_min > self.pluck_max:
             raise invalid("pluck_min", self.pluck_min, f"(0, pluck_max={self.pluck_max}]")
+        if thread.substeps(self.dt, self.physics) > MOST_SUBSTEPS:
+            # substeps of at most half the stable step min(sqrt(m/S), m/c): that step at least 2 dt / MOST_SUBSTEPS
+            m, rate = self.node_mass, 0.5 * MOST_SUBSTEPS / self.dt
+            why = f"node_mass={m!r} and dt={self.dt!r}: at most {MOST_SUBSTEPS} stable substeps per step"
+            if self.drag == 0.0 or math.sqrt(m / self.stiffness) < m / self.drag:  # the spring's bound binds
+                raise invalid("stiffness", self.stiffness, f"(0, {m * rate * rate:.6g}] for {why}")
+            raise invalid("drag", self.drag, f"[0, {m * rate:.6g}] for {why}")
         try:
             rest = thread.static_equilibrium(self.physics)
         except RuntimeError as error:  # a thread far too slack (natural_length=300 m, say)
@@ -333,7 +343,8 @@ class ThreadEnv(VegymEnv[ThreadEnvParams]):
     The elastic thread of the chapter (8.6.3, 8.99-8.112) in the vector form of PHYSICS.md section 9: N point
     masses m joined by N + 1 springs (stiffness S, natural length l) between two fixed ends ``span`` apart, under
     gravity and a light air drag, integrated with semi-implicit Euler in as many substeps as keep them within half
-    the stability bound, ``h <= sqrt(m/S) / 2`` (3 per step at the defaults). At the defaults the thread is
+    the stability bound, ``h <= min(sqrt(m/S), m/c) / 2`` (3 per step at the defaults, at most ``MOST_SUBSTEPS``,
+    1000). At the defaults the thread is
     pretensioned (10 springs of 0.1 m over 1.1 m) and sags 6 cm at rest; its slowest mode rings at 2.4 Hz and,
     with the air drag alone, the energy takes 46 s to fall to 1%. Each episode plucks it: one point is pulled up
     or down and the thread released at rest from the triangle it makes. Actuators at ``n_actuators`` nodes push
