@@ -252,6 +252,7 @@ def test_controllers_predict_batches_like_single_observations(controller_cls: ty
         ({"target_ratio_min": 1.5}, "target_ratio_min"),
         ({"lookahead": 40}, "lookahead"),
         ({"lookahead": 2.5}, "lookahead"),
+        ({"episode_bounces": 10**9}, r"episode_bounces=1000000000 is outside the allowed range \[1, 10000\]"),
     ],
 )
 def test_invalid_parameters_raise_value_errors_naming_them(kwargs: dict, name: str) -> None:

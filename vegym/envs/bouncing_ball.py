@@ -33,7 +33,10 @@ class BouncingBallParams(Params):
     lookahead: int = param(3, "number of future targets shown besides the current one", low=0, high=16)
     rest_speed: float = param(0.05, "rebound speed below which the ball is at rest, ending the episode (m/s)", low=0.0)
     episode_bounces: int = param(
-        10, "planned episode length (bounces), the registered max_episode_steps: resting earlier is charged", low=1
+        10,
+        "planned episode length (bounces), the registered max_episode_steps: resting earlier is charged",
+        low=1,
+        high=10_000,  # the rest charge draws every planned bounce left (0.2 ms per ball at rest at 10,000)
     )
     success_error: float = param(
         0.05, "is_success: mean apex error over the episode, in units of drop_height - radius, at most this", low=0.0
