@@ -68,12 +68,12 @@ def test_passes_gymnasium_and_sb3_checkers_without_warnings(env_id: str) -> None
     assert [str(w.message) for w in caught] == []
 
 
-def test_the_native_vector_env_truncates_at_the_registered_limit_unless_given_none() -> None:
+def test_the_native_vector_env_truncates_at_the_registered_limit_unless_given_none_or_minus_one() -> None:
     """``make_vec`` passes the registered ``max_episode_steps``; an explicit None reaches the vector env, where it
-    means no limit (documented in ``VegymVectorEnv``)."""
+    means no limit (documented in ``VegymVectorEnv``), as -1 does there and in ``gymnasium.make``."""
     env_id = "vegym/GearTrain-v0"  # no goal ends its episodes
     limit = gym.spec(env_id).max_episode_steps
-    for given, truncates in (({}, True), ({"max_episode_steps": None}, False)):
+    for given, truncates in (({}, True), ({"max_episode_steps": None}, False), ({"max_episode_steps": -1}, False)):
         env = gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point", **given)
         env.reset(seed=0)
         action = np.zeros(env.action_space.shape, np.float32)

@@ -713,10 +713,11 @@ def _in_chunks(n: int, run: Callable[[slice], None]) -> None:
             future.result()
 
 
-def _count(name: str, value: Any) -> int:
-    """``value`` as a Python int of at least 1 (any integer type but bool); ValueError naming ``name`` otherwise."""
+def _count(name: str, value: Any, alternatives: str = "") -> int:
+    """``value`` as a Python int of at least 1 (any integer type but bool); ValueError naming ``name`` (and the
+    ``alternatives`` text) otherwise."""
     if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Integral) or value < 1:
-        raise ValueError(f"{name}={value!r} is outside the allowed range: integers in [1, inf)")
+        raise ValueError(f"{name}={value!r} is outside the allowed range: integers in [1, inf){alternatives}")
     return int(value)
 
 
@@ -725,9 +726,9 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
 
     NEXT_STEP autoreset: the step after a sub-env terminates or truncates resets it, returning its first
     observation with reward 0 and ``terminated = truncated = False``. Truncation comes from
-    ``max_episode_steps`` (``make_vec`` passes the registered value unless given one). None means no time limit,
-    also when passed to ``make_vec`` explicitly (``gymnasium.make`` reads None as the registered limit, -1 as
-    none). The state is updated in place, but for the task's episode constants, which get new arrays when
+    ``max_episode_steps`` (``make_vec`` passes the registered value unless given one). None or -1 means no time
+    limit, None also when passed to ``make_vec`` explicitly (``gymnasium.make`` reads None as the registered limit,
+    -1 as none). The state is updated in place, but for the task's episode constants, which get new arrays when
     episodes start. No returned array is ever written again: they are fresh or read-only (the infos' views of the
     episode constants and arrays of constants). With
     ``render_mode="rgb_array"`` each sub-env has the single env's renderer, fed after every step (a snapshot of
@@ -741,7 +742,10 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         self, num_envs: int = 1, max_episode_steps: int | None = None, render_mode: str | None = None, **params: Any
     ) -> None:
         num_envs = _count("num_envs", num_envs)
-        max_episode_steps = None if max_episode_steps is None else _count("max_episode_steps", max_episode_steps)
+        if max_episode_steps is None or (isinstance(max_episode_steps, numbers.Integral) and max_episode_steps == -1):
+            max_episode_steps = None
+        else:
+            max_episode_steps = _count("max_episode_steps", max_episode_steps, "; None or -1 for no limit")
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise ValueError(
                 f"render_mode={render_mode!r} is not one of {self.metadata['render_modes']} (a vector env returns its "
