@@ -19,12 +19,16 @@ from stable_baselines3.common.vec_env.base_vec_env import VecEnv, VecEnvIndices,
 
 from vegym.envs.base import split_info
 
+_SUB_ENV_SPACES = {"observation_space": "single_observation_space", "action_space": "single_action_space"}
+"""The vector env's attributes that ``get_attr`` reads for a sub-env's spaces."""
+
 
 class VectorEnvAdapter(VecEnv):
     """SB3 ``VecEnv`` semantics over a Gymnasium NEXT_STEP ``VectorEnv`` (see the module docstring).
 
     The sub-envs of a native vector env share one batched task, so ``get_attr``, ``set_attr`` and ``env_method``
-    act on the vector env itself, for all sub-envs at once (ValueError for indices that pick only some), and no
+    act on the vector env itself, for all sub-envs at once (ValueError for indices that pick only some; the spaces
+    that ``get_attr`` returns are a sub-env's), and no
     sub-env is wrapped (``env_is_wrapped`` is all False). ``get_images`` gives the frames of the vector env's
     ``render()`` (a ``SyncVectorEnv`` of rgb_array envs draws one per sub-env).
     """
@@ -84,6 +88,8 @@ class VectorEnvAdapter(VecEnv):
         return self.num_envs
 
     def get_attr(self, attr_name: str, indices: VecEnvIndices = None) -> list[Any]:
+        """The vector env's attribute, once per sub-env of ``indices``; a space is a sub-env's, as DummyVecEnv's."""
+        attr_name = _SUB_ENV_SPACES.get(attr_name, attr_name)
         return [getattr(self.venv, attr_name)] * self._count(indices)
 
     def set_attr(self, attr_name: str, value: Any, indices: VecEnvIndices = None) -> None:

@@ -347,10 +347,13 @@ def test_split_info_takes_lists_and_partial_masks_as_sync_vector_env_infos() -> 
     assert rows[0]["terms"] == {} and rows[1]["terms"] == {"a": 1.5}
 
 
-def test_adapter_acts_on_the_whole_native_vector_env_and_refuses_some_indices() -> None:
+def test_adapter_acts_on_the_whole_native_vector_env_refuses_some_indices_and_gives_sub_env_spaces() -> None:
     adapter = VectorEnvAdapter(gym.make_vec("vegym/Projectile-v0", num_envs=3, vectorization_mode="vector_entry_point"))
     adapter.reset()
     assert adapter.get_attr("num_envs") == [3, 3, 3] and adapter.get_attr("num_envs", indices=[1]) == [3]
+    dummy = DummyVecEnv([lambda: gym.make("vegym/Projectile-v0")] * 3)
+    for space in ("observation_space", "action_space"):  # a sub-env's, as DummyVecEnv's
+        assert adapter.get_attr(space, indices=[0, 2]) == dummy.get_attr(space, indices=[0, 2])
     results = adapter.env_method("reset", seed=1)  # one call on the vector env, its result for each sub-env
     assert len(results) == 3 and results[0][0].shape == (3, 4)
     adapter.set_attr("note", "all")
