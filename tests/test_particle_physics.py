@@ -65,6 +65,12 @@ def test_ten_thousand_elastic_bounces_keep_the_apex() -> None:
     assert particle.apex_height(radius, rebound, G) == pytest.approx(h0, abs=1e-9)
 
 
+def test_the_apex_is_h_plus_v_squared_over_2g_rising_and_the_height_itself_falling() -> None:
+    h, v = np.array([1.0, 1.0, 2.5, 2.5]), np.array([3.0, -3.0, 0.0, -0.5])
+    expected = [1.0 + 9.0 / (2.0 * G), 1.0, 2.5, 2.5]
+    np.testing.assert_allclose(particle.apex_height(h, v, G), expected, rtol=1e-15, atol=0.0)
+
+
 @pytest.mark.parametrize("e", [0.0, 0.5, 1.0])
 def test_restitution_on_an_inclined_surface_keeps_the_tangential_component(e: float) -> None:
     rng = np.random.default_rng(1)

@@ -48,6 +48,7 @@ def test_huge_scenes_draw_their_frames(env_id: str, params: dict) -> None:
     env.step(env.action_space.sample())
     frame = env.render()
     assert frame.dtype == np.uint8 and frame.ndim == 3 and frame.shape[2] == 3
+    assert len(np.unique(frame.reshape(-1, 3), axis=0)) > 2  # a drawn scene, not a blank or filled frame
 
 
 @pytest.mark.parametrize(("radius", "width"), [(27, 0), (27, 3), (40, 3), (40, 0), (80, 60), (1e7, 2)])
