@@ -271,3 +271,63 @@ def test_gusty_is_aircraft_with_drafts_and_gusts_by_registration() -> None:
 def test_bad_parameters_raise_value_error_naming_them(kwargs: dict, name: str) -> None:
     with pytest.raises(ValueError, match=name):
         gym.make(ENV_ID, **kwargs)
+
+
+def fly_one_step_from(altitude: float, speed: float, heading: float, demand: tuple[float, float, float]):
+    """Aircraft-v0 reset, then set to the given altitude, airspeed, heading and demand, and one step of the zero
+    action (which holds speed, altitude and heading in still air): the step's observation and info."""
+    env = gym.make(ENV_ID)
+    env.reset(seed=0)
+    state = env.unwrapped.state
+    state["position"][0, 1], state["speed"][0], state["heading"][0] = altitude, speed, heading
+    state["demand"][0] = demand
+    obs, reward, _, _, info = env.step(np.zeros(3, np.float32))
+    assert info["position"][1] == altitude and info["speed"] == speed and info["heading"] == pytest.approx(heading)
+    np.testing.assert_array_equal(info["demand"], demand)
+    return env.unwrapped.params, obs, reward, info
+
+
+@pytest.mark.parametrize(
+    ("altitude_error", "speed_error", "heading_error"),
+    [(900.0, -12.0, 2.5), (-150.0, 45.0, -0.4), (-1200.0, 6.0, -3.0)],
+)
+def test_tracking_reward_terms_are_the_documented_clipped_errors(
+    altitude_error: float, speed_error: float, heading_error: float
+) -> None:
+    """Rewards: ``-|altitude error| / (3 altitude_scale)`` and ``-|airspeed error| / (3 speed_scale)``, each error
+    clipped to its scale, and ``-|heading error| / (3 pi)``; errors are demand minus value."""
+    altitude, speed, heading = 2000.0, 120.0, 0.3
+    demand = (altitude + altitude_error, speed + speed_error, heading + heading_error)
+    p, _, reward, info = fly_one_step_from(altitude, speed, heading, demand)
+    terms = info["reward_terms"]
+    assert terms["altitude"] == pytest.approx(-min(abs(altitude_error), p.altitude_scale) / (3 * p.altitude_scale))
+    assert terms["speed"] == pytest.approx(-min(abs(speed_error), p.speed_scale) / (3 * p.speed_scale))
+    assert terms["heading"] == pytest.approx(-abs(heading_error) / (3 * math.pi), rel=1e-9)
+    assert terms["effort"] == 0.0
+    assert reward == pytest.approx(sum(terms.values()))
+
+
+@pytest.mark.parametrize(
+    ("errors", "success"),
+    [
+        ((10.0, 1.5, math.radians(1.5)), True),
+        ((10.0, 1.5, math.radians(10.0)), False),
+        ((10.0, 3.0, math.radians(1.5)), False),
+        ((20.0, 1.5, math.radians(1.5)), False),
+    ],
+    ids=["all_within", "heading_out", "speed_out", "altitude_out"],
+)
+def test_success_needs_every_error_within_its_tolerance(errors: tuple[float, float, float], success: bool) -> None:
+    """Episode End: is_success when within altitude_tolerance (15 m), speed_tolerance (2 m/s) and
+    heading_tolerance (2 deg) of the demand, each alone failing it."""
+    altitude, speed, heading = 1300.0, 110.0, -1.0
+    demand = (altitude - errors[0], speed + errors[1], heading - errors[2])
+    _, _, _, info = fly_one_step_from(altitude, speed, heading, demand)
+    assert info["is_success"] is success
+
+
+@pytest.mark.parametrize("speed", [60.0, 95.0, 137.5, 200.0])
+def test_observed_airspeed_is_its_fraction_of_the_airframe_range(speed: float) -> None:
+    """Observation Space: obs[4] is ``(v - min_speed) / (max_speed - min_speed)``."""
+    p, obs, _, _ = fly_one_step_from(1400.0, speed, 0.0, (1400.0, 120.0, 0.0))
+    assert obs[4] == pytest.approx((speed - p.min_speed) / (p.max_speed - p.min_speed), abs=1e-7)

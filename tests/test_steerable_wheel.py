@@ -221,3 +221,38 @@ def test_rendered_frame_shows_the_arena_and_changes_as_the_wheel_rolls() -> None
     waypoint = state["waypoints"][0, int(state["index"][0])]
     assert colours_near(*waypoint) == {canvas.RED}
     assert {canvas.BLACK, canvas.GREEN} <= colours_near(*state["position"][0])
+
+
+@pytest.mark.parametrize("side", [1.0, -1.0], ids=["plus_z", "minus_z"])
+def test_leaving_the_arena_across_z_ends_the_episode_with_the_exit_cost(side: float) -> None:
+    """Episode End: the wheel leaves when ``max(|x|, |z|) > arena_size / 2``, across z as across x."""
+    p = SteerableWheelParams(n_waypoints=1)
+    task = SteerableWheelTask(p)
+    heading = 0.0 if side > 0 else np.pi  # forward is (sin psi, 0, cos psi): +z or -z
+    start = (0.0, side * (p.half_size - 0.05))
+    state = single_state(task, start, heading, [(5.0, 0.0)], speed=1.0)
+    after, out, info = task.transition(state, np.zeros((1, 2)))
+    x, z = after["position"][0]
+    assert abs(x) < 1e-12 and side * z > p.half_size  # outside across z only
+    assert out["terminated"][0] and not info["is_success"][0]
+    assert info["reward_terms"]["exit"][0] == -p.exit_penalty
+    assert out["reward"][0] == pytest.approx(sum(t[0] for t in info["reward_terms"].values()), rel=1e-12)
+
+
+def test_progress_and_effort_terms_follow_the_documented_formulas() -> None:
+    """Rewards: progress is ``progress_weight`` times the metres gained toward the current waypoint over the step
+    (from the positions before and after), effort is ``-effort_penalty * dt * a1^2``."""
+    p = SteerableWheelParams(progress_weight=1.5, effort_penalty=0.3, dt=0.2)
+    task = SteerableWheelTask(p)
+    target = np.array([5.0, 3.0])
+    start = np.array([-1.0, 0.5])
+    waypoints = [tuple(target), (0, 0), (0, 0), (0, 0), (0, 0)]
+    state = single_state(task, tuple(start), np.pi / 2, waypoints, speed=2.0)
+    a1 = 0.6
+    after, _, info = task.transition(state, np.array([[1.0, a1]]))
+    end = after["position"][0]
+    gained = np.linalg.norm(target - start) - np.linalg.norm(target - end)
+    assert gained > 0.1 and info["steer_increment"][0] != 0.0
+    assert info["reward_terms"]["progress"][0] == pytest.approx(p.progress_weight * gained, rel=1e-12)
+    assert info["reward_terms"]["effort"][0] == pytest.approx(-p.effort_penalty * p.dt * a1**2, rel=1e-12)
+    assert info["waypoint_index"][0] == 0 and info["reward_terms"]["exit"][0] == 0.0

@@ -233,3 +233,43 @@ def test_observations_are_scaled_near_unit_spread_and_the_velocities_never_clip(
     seen = np.concatenate(seen)
     assert ((0.17 < seen.std(axis=0)) & (seen.std(axis=0) < 0.29)).all(), seen.std(axis=0)
     assert np.abs(seen[:, 1:3]).max() * p.velocity_scale < (0.38 if controller is None else 0.32)
+
+
+@pytest.mark.parametrize("sign", [-1.0, 1.0], ids=["compression", "extension"])
+def test_a_bump_stop_ends_the_episode_in_compression_as_in_extension(sign: float) -> None:
+    """Episode End: terminated when ``|travel| > travel_limit``, either way, with the documented bump-stop charge."""
+    env = gym.make(ENV_ID)
+    env.reset(seed=0)
+    p: SuspensionParams = env.unwrapped.params
+    state = env.unwrapped.state
+    state["height"][0] = state["base"][0] + p.static_length + sign * 2.5 * p.travel_limit
+    _, reward, terminated, _, info = env.step(np.array([0.0], np.float32))
+    assert terminated and not info["is_success"]
+    assert np.sign(info["travel"]) == sign and abs(info["travel"]) > p.travel_limit
+    remaining = (p.episode_steps - 1) * p.dt
+    assert info["reward_terms"]["bump_stop"] == pytest.approx(-(p.bottom_out_penalty + remaining), rel=1e-12)
+    assert reward == pytest.approx(info["reward_terms"]["comfort"] + info["reward_terms"]["bump_stop"], rel=1e-12)
+
+
+@pytest.mark.parametrize("offset", [-0.6, 0.5])
+def test_observed_travel_and_acceleration_are_the_state_over_their_scales(offset: float) -> None:
+    """Observation Space: obs[0] is (spring length - static length) / travel_limit and obs[3] the body acceleration
+    of the step over accel_scale, the acceleration from dv/dt = -(k/m)(y - y_b - l) - (c/m)(v - v_b) - g."""
+    env = gym.make(ENV_ID)
+    env.reset(seed=3)
+    p: SuspensionParams = env.unwrapped.params
+    k = p.modulus / p.natural_length
+    static_length = p.natural_length - p.mass * p.gravity / k
+    state = env.unwrapped.state
+    state["height"][0] = state["base"][0] + static_length + offset * p.travel_limit
+    y, v, y_b, v_b = (float(state[name][0]) for name in ("height", "velocity", "base", "base_velocity"))
+    obs, _, terminated, _, info = env.step(np.array([-1.0], np.float32))  # c = damping_min
+    assert not terminated
+    acceleration = -(k / p.mass) * (y - y_b - p.natural_length) - p.damping_min / p.mass * (v - v_b) - p.gravity
+    assert info["body_velocity"] == pytest.approx(v + p.dt * acceleration, rel=1e-9)
+    assert 0.1 < abs(acceleration / p.accel_scale) < 1.0  # unclipped, and far from zero
+    assert obs[3] == pytest.approx(acceleration / p.accel_scale, rel=1e-5)
+    travel = info["body_height"] - info["base_height"] - static_length
+    assert 0.1 < abs(travel / p.travel_limit) < 1.0
+    assert obs[0] == pytest.approx(travel / p.travel_limit, rel=1e-5)
+    assert np.sign(obs[0]) == np.sign(offset)  # the travel still has the sign it was given
