@@ -153,3 +153,22 @@ def test_the_step_is_the_collision_module_s_array_functions_on_a_s_aim() -> None
     np.testing.assert_allclose(info["energy_lost"], energy, rtol=1e-12)
     duration = (speed - impact_speed) / p.deceleration + np.maximum(time_a, time_b)
     np.testing.assert_allclose(info["duration"], duration, rtol=1e-9)
+
+
+def test_is_success_is_b_resting_within_the_target_radius_of_the_target() -> None:
+    """``is_success == (|rest_b - target| <= target_radius)``, on ghost-ball strikes perturbed to miss by about
+    the target radius."""
+    n = 400
+    for seed, noise in enumerate((0.02, 0.05, 0.1)):
+        env = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point")
+        p, rng = env.unwrapped.params, np.random.default_rng(seed)
+        obs, _ = env.reset(seed=seed)
+        action = BilliardsGhostBall(p).predict(obs)[0] + rng.normal(0.0, noise, (n, 2))
+        _, reward, _, _, info = env.step(np.clip(action, -1.0, 1.0).astype(np.float32))
+        miss = np.linalg.norm(info["rest_b"] - info["target"], axis=-1)
+        np.testing.assert_allclose(info["miss_distance"], miss, rtol=1e-12, atol=1e-15)
+        hit = miss <= p.target_radius
+        np.testing.assert_array_equal(info["is_success"], hit)
+        np.testing.assert_allclose(reward, -miss / p.target_distance_max + np.where(hit, p.hit_bonus, 0.0))
+        assert 0.05 < hit.mean() < 0.95
+        assert np.count_nonzero((miss > p.target_radius) & (miss <= 2.0 * p.target_radius)) > 10

@@ -258,3 +258,57 @@ def test_controllers_predict_batches_like_single_observations(controller_cls: ty
 def test_invalid_parameters_raise_value_errors_naming_them(kwargs: dict, name: str) -> None:
     with pytest.raises(ValueError, match=name):
         BouncingBallParams(**kwargs)
+
+
+@pytest.mark.parametrize("policy", ["myopic", "random", "rest"])
+def test_is_success_is_the_mean_apex_error_so_far_and_over_every_planned_bounce_once_at_rest(policy: str) -> None:
+    """``mean(|apex - target|) / H <= success_error`` over the bounces so far, or over all ``episode_bounces``
+    planned ones (the skipped ones charged at ``h = r``) once at rest; thresholds on a fine grid around the means."""
+    bounces, radius, drop_height = 10, 0.1, 3.0
+    height = drop_height - radius
+    flags = {True: 0, False: 0}
+    for success_error in np.geomspace(0.005, 0.6, 40):
+        env = gym.make(ENV_ID, success_error=success_error)
+        controller = BouncingBallMyopic(env.unwrapped.params)
+        env.action_space.seed(4)
+        rng = np.random.default_rng(4)
+        for seed in range(3):
+            obs, _ = env.reset(seed=seed)
+            targets = env.unwrapped.task.targets(env.unwrapped.state["key"], bounces)[0]
+            errors = []
+            for k in itertools.count():
+                if policy == "myopic":
+                    action = controller.predict(obs)[0]
+                elif policy == "random":
+                    action = env.action_space.sample()
+                else:  # a few random bounces, then rest at once
+                    action = np.array([-1.0 if k == seed else rng.uniform(-1.0, 1.0)], dtype=np.float32)
+                obs, _, terminated, truncated, info = env.step(action)
+                errors.append(abs(info["apex_height"] - info["target_height"]) / height)
+                assert info["target_height"] == pytest.approx(targets[k], rel=1e-15)
+                if terminated:  # at rest: every planned bounce skipped lies at h = r
+                    charged = sum(errors) + np.sum(targets[k + 1 :] - radius) / height
+                    expected = charged / max(k + 1, bounces) <= success_error
+                else:
+                    expected = sum(errors) / (k + 1) <= success_error
+                assert info["is_success"] == expected, (success_error, seed, k)
+                flags[bool(expected)] += 1
+                if terminated or truncated:
+                    break
+            assert policy != "rest" or terminated
+    assert min(flags.values()) > 10
+
+
+def test_simulated_time_is_the_drop_plus_every_flight_of_2_rebound_over_g() -> None:
+    """``time = sqrt(2 (drop_height - r) / g) + sum 2 e v / g``; a ball at rest adds no flight."""
+    g, radius, drop_height = 9.81, 0.15, 2.5
+    env = gym.make(ENV_ID, radius=radius, drop_height=drop_height, target_max=2.0)
+    env.reset(seed=1)
+    time = np.sqrt(2.0 * (drop_height - radius) / g)
+    assert env.unwrapped.state["time"][0] == pytest.approx(time, rel=1e-12)
+    for a in (0.9, 0.4, -0.3, 1.0, 0.2, -1.0):
+        _, _, terminated, _, info = env.step(np.array([a], dtype=np.float32))
+        rebound = info["restitution"] * info["impact_speed"]
+        time += 0.0 if terminated else 2.0 * rebound / g
+        assert env.unwrapped.state["time"][0] == pytest.approx(time, rel=1e-12)
+    assert terminated and time > np.sqrt(2.0 * (drop_height - radius) / g) + 1.0

@@ -125,3 +125,56 @@ def test_parameters_that_could_turn_the_output_half_a_turn_per_step_are_rejected
         GearTrainParams(gears_min=6)
     with pytest.raises(ValueError, match="target_interval"):
         GearTrainParams(target_interval=0.01)
+
+
+def test_is_success_is_the_wrapped_output_error_within_the_tolerance_on_every_step() -> None:
+    """``is_success == (|wrap(target - output)| <= tolerance)``, on episodes whose error crosses the tolerance."""
+    n, tolerance = 32, 0.05
+    env = gym.make_vec(ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", tolerance=tolerance)
+    controller = controller_for(env)
+    obs, _ = env.reset(seed=7)
+    near = 0
+    for _ in range(150):
+        obs, _, _, _, info = env.step(controller.predict(obs)[0])
+        error = np.abs(np.angle(np.exp(1j * (info["target_angle"] - info["output_angle"]))))
+        np.testing.assert_allclose(error, np.abs(info["error"]), atol=1e-12)
+        np.testing.assert_array_equal(info["is_success"], error <= tolerance)
+        near += np.count_nonzero((error > tolerance) & (error <= 2.0 * tolerance))
+    assert near >= n // 2
+
+
+def test_the_observed_motor_speed_is_the_rate_limited_command_over_max_speed() -> None:
+    """obs[2] = v / max_speed with ``v_k = clip(a max_speed, v_{k-1} - max_acceleration dt, v_{k-1} + ...)``."""
+    n, max_speed, max_acceleration, dt = 16, 6.0, 30.0, 0.04
+    env = gym.make_vec(
+        ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", max_speed=max_speed,
+        max_acceleration=max_acceleration, dt=dt,
+    )  # fmt: skip
+    rng = np.random.default_rng(3)
+    obs, _ = env.reset(seed=3)
+    np.testing.assert_array_equal(obs[:, 2], 0.0)
+    speed = np.zeros(n)
+    for _ in range(120):
+        action = rng.uniform(-1.0, 1.0, (n, 1)).astype(np.float32)
+        obs, _, _, truncated, info = env.step(action)
+        assert not truncated.any()
+        step = max_acceleration * dt
+        speed = np.clip(max_speed * action[:, 0].astype(np.float64), speed - step, speed + step)
+        np.testing.assert_allclose(info["input_speed"], speed, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(obs[:, 2], speed / max_speed, rtol=1e-6, atol=1e-7)
+    assert np.abs(obs[:, 2]).max() > 0.5
+
+
+def test_the_proportional_controller_s_default_gain_halves_the_error_per_step() -> None:
+    """Default ``k = 1 / (2 dt)``: ``a = clip(k atan2(sin, cos) / rho, +-max_speed) / max_speed``."""
+    p = GearTrainParams(dt=0.04)
+    controller = GearTrainProportional(p)
+    assert controller.gain == pytest.approx(0.5 / p.dt, rel=1e-15)
+    error = np.array([0.01, -0.02, 0.05, -0.003, 2.5])
+    ratio = np.array([0.5, -1.5, 3.0, -0.7, 0.4])  # omega_out / omega_in
+    obs = np.stack([np.sin(error), np.cos(error), np.zeros(5), ratio / p.ratio_max], axis=-1).astype(np.float32)
+    sin, cos, rho = (obs[:, k].astype(np.float64) for k in (0, 1, 3))
+    demand = 0.5 / p.dt * np.arctan2(sin, cos) / (rho * p.ratio_max)
+    expected = np.clip(demand, -p.max_speed, p.max_speed) / p.max_speed
+    assert np.abs(expected[:4]).max() < 0.9 and expected[4] == 1.0  # the small errors unsaturated
+    np.testing.assert_allclose(controller.act(obs)[:, 0], expected, rtol=1e-6)

@@ -181,3 +181,47 @@ def test_the_step_writes_the_observation_of_its_state_bit_for_bit_target_changes
 def test_bad_parameters_raise_value_error_naming_them(kwargs: dict, name: str) -> None:
     with pytest.raises(ValueError, match=name):
         gym.make(ENV_ID, **kwargs)
+
+
+def test_the_energy_and_amplitude_errors_are_observed_from_the_state_in_si_units() -> None:
+    """obs[4] = ``clip((E - E*) / (2 m g L), +-1)``, obs[5] = ``(theta_E - theta*) / pi`` with
+    ``E = m L^2 omega^2 / 2 + m g L (1 - cos theta)``, ``E* = m g L (1 - cos theta*)`` and
+    ``theta_E = arccos(1 - E / (m g L))``, from the state (a heavy long pendulum: m L^2 differs from m g L)."""
+    n, m, length, g = 32, 2.0, 1.5, 9.81
+    env = gym.make_vec(
+        ENV_ID, num_envs=n, vectorization_mode="vector_entry_point", mass=m, length=length, max_torque=6.0
+    )
+    rng = np.random.default_rng(1)
+    env.reset(seed=1)
+    signs = np.zeros(2)
+    for _ in range(300):
+        obs, *_ = env.step(rng.uniform(-1.0, 1.0, (n, 1)).astype(np.float32))
+        state = env.unwrapped.state
+        theta, omega, target = state["theta"], state["omega"], state["target"]
+        energy = 0.5 * m * length**2 * omega**2 + m * g * length * (1.0 - np.cos(theta))
+        target_energy = m * g * length * (1.0 - np.cos(target))
+        amplitude = np.arccos(np.clip(1.0 - energy / (m * g * length), -1.0, 1.0))
+        energy_error = np.clip((energy - target_energy) / (2.0 * m * g * length), -1.0, 1.0)
+        np.testing.assert_allclose(obs[:, 4], energy_error, atol=1e-6)
+        np.testing.assert_allclose(obs[:, 5], (amplitude - target) / np.pi, atol=1e-6)
+        signs += np.count_nonzero(obs[:, 5] > 0.01), np.count_nonzero(obs[:, 5] < -0.01)
+    assert signs.min() > n
+
+
+def test_energy_pumping_s_default_gain_is_2_and_its_torque_the_saturated_pumping_law() -> None:
+    """Default ``k_E = 2`` N m per (J rad/s): ``tau = clip(k_E (E* - E) omega, +-tau_max)`` from the observation."""
+    p = PendulumPumpParams(mass=0.5, length=0.8)
+    controller = PendulumEnergyPumping(p)
+    assert controller.gain == 2.0
+    theta = np.array([0.1, -0.3, 0.5, 1.2, -0.05])
+    omega = np.array([0.2, -0.15, 0.05, 0.3, -2.0])
+    target = np.array([0.4, 0.2, 1.0, 0.9, 1.5])
+    scale = 2.0 * np.sqrt(p.gravity / p.length)
+    obs = np.stack([np.sin(theta), np.cos(theta), omega / scale, target / np.pi, 0 * theta, 0 * theta], axis=-1)
+    obs = obs.astype(np.float32)
+    th, om, tg = np.arctan2(obs[:, 0], obs[:, 1]), obs[:, 2] * scale, obs[:, 3] * np.pi
+    mgl, inertia = p.mass * p.gravity * p.length, p.mass * p.length**2
+    energy = 0.5 * inertia * om**2 + mgl * (1.0 - np.cos(th))
+    torque = np.clip(2.0 * (mgl * (1.0 - np.cos(tg)) - energy) * om, -p.max_torque, p.max_torque)
+    assert np.abs(torque[:4]).max() < 0.9 * p.max_torque and abs(torque[4]) == p.max_torque
+    np.testing.assert_allclose(controller.act(obs)[:, 0], torque / p.max_torque, rtol=1e-6, atol=1e-7)
