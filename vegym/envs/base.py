@@ -713,10 +713,15 @@ def _in_chunks(n: int, run: Callable[[slice], None]) -> None:
             future.result()
 
 
+def _is_integer(value: Any) -> bool:
+    """Whether ``value`` is an integer of any type, numpy's too, but not a bool."""
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool | np.bool_)
+
+
 def _count(name: str, value: Any, alternatives: str = "") -> int:
     """``value`` as a Python int of at least 1 (any integer type but bool); ValueError naming ``name`` (and the
     ``alternatives`` text) otherwise."""
-    if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Integral) or value < 1:
+    if not _is_integer(value) or value < 1:
         raise ValueError(f"{name}={value!r} is outside the allowed range: integers in [1, inf){alternatives}")
     return int(value)
 
@@ -794,7 +799,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             mask = np.ones(self.num_envs, dtype=bool)
         if mask is not None:
             return self._reset_masked(seed, mask)
-        super().reset(seed=int(seed) if isinstance(seed, numbers.Integral) and not isinstance(seed, bool) else None)
+        super().reset(seed=int(seed) if _is_integer(seed) else None)
         if seed is None:
             keys = self.np_random.integers(0, 2**64, size=self.num_envs, dtype=np.uint64)
         else:
@@ -814,7 +819,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         unseeded, as SyncVectorEnv does: its next episode, as ``reset()`` would start it (its first drawn from
         ``np_random``)."""
         n = self.num_envs
-        if isinstance(seed, numbers.Integral) and not isinstance(seed, bool):  # numpy integers too
+        if _is_integer(seed):
             seed = int(seed)
             if not 0 <= seed <= 2**64 - n:
                 raise ValueError(f"seed={seed} gives sub-env seeds seed + i outside [0, 2**64) for num_envs={n}")
