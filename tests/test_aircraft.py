@@ -273,9 +273,12 @@ def test_bad_parameters_raise_value_error_naming_them(kwargs: dict, name: str) -
         gym.make(ENV_ID, **kwargs)
 
 
-def fly_one_step_from(altitude: float, speed: float, heading: float, demand: tuple[float, float, float]):
+def fly_one_step_from(
+    altitude: float, speed: float, heading: float, demand: tuple[float, float, float]
+) -> tuple[AircraftEnvParams, np.ndarray, float, dict]:
     """Aircraft-v0 reset, then set to the given altitude, airspeed, heading and demand, and one step of the zero
-    action (which holds speed, altitude and heading in still air): the step's observation and info."""
+    action (which holds speed, altitude and heading in still air): the env's params, the step's observation,
+    reward and info."""
     env = gym.make(ENV_ID)
     env.reset(seed=0)
     state = env.unwrapped.state

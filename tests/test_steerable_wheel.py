@@ -256,3 +256,33 @@ def test_progress_and_effort_terms_follow_the_documented_formulas() -> None:
     assert info["reward_terms"]["progress"][0] == pytest.approx(p.progress_weight * gained, rel=1e-12)
     assert info["reward_terms"]["effort"][0] == pytest.approx(-p.effort_penalty * p.dt * a1**2, rel=1e-12)
     assert info["waypoint_index"][0] == 0 and info["reward_terms"]["exit"][0] == 0.0
+
+
+@pytest.mark.parametrize(
+    ("distance", "bearing_deg", "speed"),
+    [
+        (1.5, 60.0, 1.8),  # the yaw-rate limit binds: command max_yaw_rate / kappa below max_speed
+        (10.0, 10.0, 1.8),  # a gentle arc: full speed
+        (0.5, 150.0, 1.0),  # a waypoint behind, to the left: kappa = 2 / min_lookahead
+        (0.5, -150.0, 1.0),  # behind, to the right
+        (1.5, 60.0, 0.0),  # from rest: the step's speed is max_acceleration * dt, whatever the command
+    ],
+)
+def test_pure_pursuit_commands_the_fastest_speed_its_curvature_allows_and_the_yaw_rate_of_the_applied_speed(
+    distance: float, bearing_deg: float, speed: float
+) -> None:
+    params = SteerableWheelParams()
+    bearing = np.radians(bearing_deg)
+    obs = np.zeros((1, 8), np.float32)
+    obs[0, :3] = distance / params.diagonal, np.sin(bearing), np.cos(bearing)
+    obs[0, 6] = speed / params.max_speed
+    action = SteerableWheelPurePursuit(params).predict(obs)[0][0]
+
+    lookahead = min(max(distance, 1.0), 2.0)
+    curvature = 2.0 * (np.sin(bearing) if np.cos(bearing) >= 0.0 else np.sign(bearing)) / lookahead
+    command = min(params.max_speed, params.max_yaw_rate / abs(curvature))
+    dv = params.max_acceleration * params.dt
+    applied = min(max(command, obs[0, 6] * params.max_speed - dv), obs[0, 6] * params.max_speed + dv)
+    yaw_rate = min(max(curvature * applied, -params.max_yaw_rate), params.max_yaw_rate)
+    assert action[0] == pytest.approx(2.0 * command / params.max_speed - 1.0, abs=1e-6)
+    assert action[1] == pytest.approx(yaw_rate / params.max_yaw_rate, abs=1e-6)
