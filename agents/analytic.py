@@ -10,14 +10,16 @@ or native vector).
 from __future__ import annotations
 
 import abc
+import functools
 import math
 from collections.abc import Callable
-from typing import Any
+from typing import Any, ClassVar
 
+import gymnasium as gym
 import numpy as np
 
 from vegym.envs.aircraft import AircraftEnvParams, AircraftTask
-from vegym.envs.base import Task, VegymEnv
+from vegym.envs.base import Task, VegymEnv, VegymVectorEnv
 from vegym.envs.billiards import BilliardsParams, BilliardsTask, ghost_ball_shot
 from vegym.envs.bouncing_ball import BouncingBallParams, BouncingBallTask, optimal_apexes
 from vegym.envs.gear_train import GearTrainParams, GearTrainTask
@@ -35,12 +37,42 @@ from vegym.envs.thread import ThreadEnvParams, ThreadTask
 from vegym.physics import aircraft, pendulum, projectile, suspension, thread
 
 
+def observation_batch(observation: Any, shape: tuple[int, ...], agent: str) -> tuple[np.ndarray, bool]:
+    """``observation`` as a float64 batch ``(n, *shape)`` and whether it was a single observation ``shape``.
+
+    ValueError, as SB3's ``predict`` raises it, for the ``(obs, info)`` pair that ``reset`` returns, for another
+    shape, and (where an SB3 policy would act on garbage or fail inside torch) for a NaN or inf entry.
+    """
+    if isinstance(observation, tuple) and len(observation) == 2 and isinstance(observation[1], dict):
+        raise ValueError(
+            f"{agent}.predict got a tuple (observation, info), the output of reset() or step(); pass only the "
+            "observation, e.g. obs, info = env.reset(); action, _ = agent.predict(obs)"
+        )
+    obs = np.asarray(observation, dtype=np.float64)
+    single = obs.shape == shape
+    if not single and obs.shape[1:] != shape:
+        raise ValueError(f"{agent}.predict: unexpected observation shape {obs.shape}; use {shape} or (n_env, *{shape})")
+    if not np.isfinite(obs).all():
+        raise ValueError(f"{agent}.predict: the observation has NaN or inf entries: {observation!r}")
+    return (obs[None] if single else obs), single
+
+
 class AnalyticController(abc.ABC):
-    """Base: batching and the SB3 ``predict`` signature around :meth:`act`."""
+    """Base: batching, the checks and the SB3 ``predict`` signature around :meth:`act`."""
+
+    task_cls: ClassVar[type[Task]]
+    """The task whose observations the controller reads; :attr:`params` are its parameters."""
+    params: Any
 
     @abc.abstractmethod
     def act(self, obs: np.ndarray) -> np.ndarray:
         """Actions (n, action_dim) in [-1, 1] for observations (n, obs_dim)."""
+
+    @functools.cached_property
+    def spaces(self) -> tuple[gym.spaces.Box, gym.spaces.Box]:
+        """The single-env observation and action spaces of :attr:`task_cls` with :attr:`params`."""
+        task = self.task_cls(self.params)
+        return task.observation_space, task.action_space
 
     def predict(
         self,
@@ -49,10 +81,11 @@ class AnalyticController(abc.ABC):
         episode_start: np.ndarray | None = None,
         deterministic: bool = False,
     ) -> tuple[np.ndarray, Any]:
-        obs = np.asarray(observation, dtype=np.float64)
-        single = obs.ndim == 1
-        action = self.act(obs[None] if single else obs)
-        action = np.clip(action, -1.0, 1.0).astype(np.float32)
+        observation_space, action_space = self.spaces
+        obs, single = observation_batch(observation, observation_space.shape, type(self).__name__)
+        if len(obs) == 0:
+            return np.empty((0, *action_space.shape), np.float32), state
+        action = np.clip(self.act(obs), -1.0, 1.0).astype(np.float32)
         return (action[0] if single else action), state
 
 
@@ -66,6 +99,8 @@ def restitution_action(speed: np.ndarray, apex: np.ndarray) -> np.ndarray:
 
 class BouncingBallLaw(AnalyticController):
     """Base of the restitution laws acting from BouncingBall's observation."""
+
+    task_cls = BouncingBallTask
 
     def __init__(self, params: BouncingBallParams) -> None:
         self.params = params
@@ -125,19 +160,19 @@ class BouncingBallOracle:
         deterministic: bool = False,
     ) -> tuple[np.ndarray, Any]:
         p = self.params
-        obs = np.asarray(observation, dtype=np.float64)
-        if obs.ndim > 1 and obs.shape[0] != 1:
-            raise ValueError(f"BouncingBallOracle acts for its one env; got a batch of {obs.shape[0]} observations")
+        obs, single = observation_batch(observation, self.env.observation_space.shape, type(self).__name__)
+        if len(obs) != 1:
+            raise ValueError(f"BouncingBallOracle acts for its one env; got a batch of {len(obs)} observations")
         step = int(self.env.state["step"][0])
         if step == 0:
             targets = self.env.task.targets(self.env.state["key"], self.episode_length)[0]
             self._plan = optimal_apexes(targets, p.drop_height, p.radius)
-        row = obs.reshape(1, -1)
         if step < len(self._plan):
-            action = restitution_action(row[:, 0], np.array([(self._plan[step] - p.radius) / p.height_scale]))
+            action = restitution_action(obs[:, 0], np.array([(self._plan[step] - p.radius) / p.height_scale]))
         else:  # an episode that outlives its plan (the env warns): the current target, as the myopic law
-            action = restitution_action(row[:, 0], row[:, 2])
-        return np.full((*obs.shape[:-1], 1), action[0, 0], dtype=np.float32), state
+            action = restitution_action(obs[:, 0], obs[:, 2])
+        action = action.astype(np.float32)
+        return (action[0] if single else action), state
 
 
 class ProjectileFiringSolution(AnalyticController):
@@ -148,6 +183,8 @@ class ProjectileFiringSolution(AnalyticController):
     with the smallest positive flight time (direct fire, not the lob). The azimuth it returns is already
     relative to the target's bearing.
     """
+
+    task_cls = ProjectileTask
 
     def __init__(self, params: ProjectileEnvParams) -> None:
         self.params = params
@@ -173,6 +210,8 @@ class SteerableWheelPurePursuit(AnalyticController):
     rate ``kappa v`` uses the speed the step will apply (the observed speed moved toward the command by at most
     ``max_acceleration dt``), clipped to ``max_yaw_rate``.
     """
+
+    task_cls = SteerableWheelTask
 
     def __init__(self, params: SteerableWheelParams, min_lookahead: float = 1.0, max_lookahead: float = 2.0) -> None:
         self.params = params
@@ -201,6 +240,8 @@ class AircraftAutopilot(AnalyticController):
     the action box.
     """
 
+    task_cls = AircraftTask
+
     def __init__(self, params: AircraftEnvParams, gains: aircraft.AutopilotGains | None = None) -> None:
         self.params = params
         self.physics = params.physics
@@ -223,6 +264,8 @@ class ProjectileAdjustFire(AnalyticController):
     quartic firing solution for that wind, which hits. A miss that gives no finite wind (a shot that never came
     down to the target's level, possible only in observations no episode makes) counts as no shot.
     """
+
+    task_cls = ProjectileAdjustTask
 
     def __init__(self, params: ProjectileAdjustParams) -> None:
         self.params = params
@@ -253,6 +296,8 @@ class BilliardsGhostBall(AnalyticController):
     (8.60) and the cloth's deceleration turn into the strike speed.
     """
 
+    task_cls = BilliardsTask
+
     def __init__(self, params: BilliardsParams) -> None:
         self.params = params
 
@@ -276,6 +321,8 @@ class GearTrainProportional(AnalyticController):
     |rho| / 2``, does not overshoot, and its return is about the same (-0.189 against -0.188).
     """
 
+    task_cls = GearTrainTask
+
     def __init__(self, params: GearTrainParams, gain: float | None = None) -> None:
         self.params = params
         self.gain = gain if gain is not None else 0.5 / params.dt
@@ -292,13 +339,19 @@ class GearTrainProportional(AnalyticController):
 class SuspensionDamperLaw(AnalyticController):
     """Base of the semi-active damper laws: a damper coefficient (N s/m) mapped onto the action."""
 
+    task_cls = SuspensionTask
+
     def __init__(self, params: SuspensionParams) -> None:
         self.params = params
 
     def action(self, damping: np.ndarray) -> np.ndarray:
-        """Actions (n, 1) that set the dampers to ``damping`` (n,) (N s/m), in ``[damping_min, damping_max]``."""
+        """Actions (n, 1) that set the dampers to ``damping`` (n,) (N s/m), in ``[damping_min, damping_max]`` (0 where
+        the two are equal)."""
         p = self.params
-        return (2.0 * (damping - p.damping_min) / (p.damping_max - p.damping_min) - 1.0)[:, None]
+        span = p.damping_max - p.damping_min
+        if span == 0.0:  # one damping: every action sets it
+            return np.zeros((len(damping), 1))
+        return (2.0 * (damping - p.damping_min) / span - 1.0)[:, None]
 
 
 class SuspensionSkyhook(SuspensionDamperLaw):
@@ -337,6 +390,8 @@ class PendulumEnergyPumping(AnalyticController):
     moves the energy toward the target's ``E* = m g L (1 - cos theta*)``. ``gain`` k_E is in N m per (J rad/s).
     """
 
+    task_cls = PendulumPumpTask
+
     def __init__(self, params: PendulumPumpParams, gain: float = 2.0) -> None:
         self.params = params
         self.physics = params.physics
@@ -360,6 +415,8 @@ class ThreadVelocityFeedback(AnalyticController):
     modes turn by up to ``2 sqrt(S/m) dt`` = 2.8 rad in a step. Twice the default gain settles faster (return
     -0.089 against -0.115 on the first 20 plucks) with no margin left.
     """
+
+    task_cls = ThreadTask
 
     def __init__(self, params: ThreadEnvParams, gain: float | None = None) -> None:
         self.params = params
@@ -412,9 +469,29 @@ CONTROLLERS: dict[type[Task], Callable[[Any], AnalyticController]] = {
 
 
 def controller_for(env: Any) -> AnalyticController:
-    """The analytic reference controller of a vegym env (single, wrapped or native vector)."""
-    task = env.unwrapped.task
+    """The analytic reference controller of a vegym env: a single env (from ``gymnasium.make``, wrapped or not) or
+    the native vector env. ValueError for another env, and for wrappers that change the spaces the controller
+    reads and acts in (``NormalizeObservation``, ``RescaleAction``, ...)."""
+    unwrapped = getattr(env, "unwrapped", None)
+    if not isinstance(unwrapped, VegymEnv | VegymVectorEnv):
+        raise ValueError(
+            f"controller_for needs a vegym env (gymnasium.make, or make_vec's native vector env); got {env!r}"
+        )
+    task = unwrapped.task
     for task_cls, factory in CONTROLLERS.items():
         if isinstance(task, task_cls):
-            return factory(task.params)
-    raise ValueError(f"no analytic controller for {type(task).__name__}")
+            controller = factory(task.params)
+            break
+    else:
+        raise ValueError(f"no analytic controller for {type(task).__name__}")
+    if isinstance(unwrapped, VegymVectorEnv):
+        spaces = env.single_observation_space, env.single_action_space
+    else:
+        spaces = env.observation_space, env.action_space
+    if spaces != controller.spaces:
+        raise ValueError(
+            f"{type(controller).__name__} reads {unwrapped.spec.id if unwrapped.spec else type(unwrapped).__name__}'s "
+            f"observations {controller.spaces[0]} and acts in {controller.spaces[1]}, but {env} has {spaces[0]} "
+            f"and {spaces[1]}: a wrapper changed them; give it the env without that wrapper"
+        )
+    return controller

@@ -235,6 +235,57 @@ def test_controllers_act_finitely_on_any_observation_of_the_space(env_id: str, n
     assert np.all(np.isfinite(actions)), name
 
 
+ALL_AGENTS = [
+    (env_id, name, factory)
+    for env_id in ENV_IDS
+    for name, factory in {"analytic": controller_for, **REFERENCE_AGENTS.get(env_id, {})}.items()
+]
+
+
+@pytest.mark.parametrize(("env_id", "name", "factory"), ALL_AGENTS, ids=lambda v: getattr(v, "__name__", v))
+def test_controllers_refuse_observations_of_another_shape_non_finite_ones_and_the_reset_pair(
+    env_id: str, name: str, factory: Callable
+) -> None:
+    """As SB3's predict does for shapes and the (obs, info) pair; a NaN or inf entry would otherwise give a NaN
+    action, a clipped one that looks fine, or a numpy error deep in the law."""
+    env = gym.make(env_id)
+    obs, info = env.reset(seed=0)
+    agent = factory(env)
+    for wrong in (obs[:-1], np.append(obs, 0.0), np.stack([np.append(obs, 0.0)] * 2), obs[None, None], obs[0]):
+        with pytest.raises(ValueError, match=re.escape(f"unexpected observation shape {np.shape(wrong)}")):
+            agent.predict(wrong)
+    for bad in (np.nan, np.inf):
+        with pytest.raises(ValueError, match="NaN or inf"):
+            agent.predict(np.where(np.arange(obs.size) == 0, bad, obs))
+    with pytest.raises(ValueError, match=re.escape("got a tuple (observation, info)")):
+        agent.predict((obs, info))
+    action, _ = agent.predict(obs)
+    assert action.shape == env.action_space.shape and action.dtype == np.float32
+    if name != "oracle":  # it acts for its one env
+        empty, _ = agent.predict(np.empty((0, *obs.shape), np.float32))
+        assert empty.shape == (0, *env.action_space.shape) and empty.dtype == np.float32
+
+
+def test_controller_for_refuses_other_envs_and_wrappers_that_change_the_spaces_it_reads() -> None:
+    env_id = "vegym/Projectile-v0"
+    kept = gym.wrappers.RecordEpisodeStatistics(gym.make(env_id))
+    assert type(controller_for(kept)).__name__ == "ProjectileFiringSolution"
+    vector = gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point")
+    assert type(controller_for(gym.wrappers.vector.RecordEpisodeStatistics(vector))).__name__ == (
+        "ProjectileFiringSolution"
+    )
+    for changed in (
+        gym.wrappers.NormalizeObservation(gym.make(env_id)),
+        gym.wrappers.RescaleAction(gym.make(env_id), np.float32(-2.0), np.float32(2.0)),
+        gym.wrappers.vector.NormalizeObservation(vector),
+    ):
+        with pytest.raises(ValueError, match="a wrapper changed them"):
+            controller_for(changed)
+    for other in (gym.make("CartPole-v1"), gym.make_vec(env_id, num_envs=2, vectorization_mode="sync")):
+        with pytest.raises(ValueError, match="controller_for needs a vegym env"):
+            controller_for(other)
+
+
 @pytest.mark.parametrize("env_id", ENV_IDS)
 def test_vector_env_matches_single_envs_including_mixed_resets(env_id: str) -> None:
     n, steps, seed = 4, 80, 11

@@ -273,3 +273,15 @@ def test_observed_travel_and_acceleration_are_the_state_over_their_scales(offset
     assert 0.1 < abs(travel / p.travel_limit) < 1.0
     assert obs[0] == pytest.approx(travel / p.travel_limit, rel=1e-5)
     assert np.sign(obs[0]) == np.sign(offset)  # the travel still has the sign it was given
+
+
+@pytest.mark.parametrize("controller_cls", [SuspensionSkyhook, SuspensionContinuousSkyhook])
+def test_the_damper_laws_act_finitely_when_the_damper_has_one_setting(controller_cls: type) -> None:
+    """damping_min == damping_max is a valid passive damper: every action sets it (the laws divided 0 by 0)."""
+    env = gym.make(ENV_ID, damping_min=2000.0, damping_max=2000.0)
+    obs, _ = env.reset(seed=0)
+    controller = controller_cls(env.unwrapped.params)
+    for _ in range(20):
+        action, _ = controller.predict(obs)
+        assert np.all(np.isfinite(action))
+        obs, *_ = env.step(action)
