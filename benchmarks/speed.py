@@ -5,7 +5,14 @@ several batch sizes, the analytic controller's batched ``predict`` rate (observa
 of the process. CartPole-v1 and its native ``CartPoleVectorEnv`` are measured with the same loops right before
 each vegym measurement, three times: a cell shows the env's best rate and the median ratio (vegym / CartPole) of
 the three back-to-back pairs, each pair taken seconds apart under the same load; the CartPole row is the median of
-CartPole's best rates beside every env. Run:
+CartPole's best rates beside every env.
+
+Env-steps/s counts as Gymnasium does: every ``step`` call times ``num_envs``. Under Gymnasium's NEXT_STEP
+autoreset the step after an episode's end only starts the next episode (no transition, reward 0), so an env whose
+episodes last one step (Projectile, Billiards) spends half its counted steps that way, where CartPole spends about
+one in twenty. A second table gives each env's share of transitions among its counted steps (measured on an
+untimed run of the same loop) and the ratio counted per transition. The single env's loop counts transitions only
+(its resets are timed, not counted). Run:
 ``python benchmarks/speed.py [--json] [--seconds S] [--envs ID ...]`` (ids with or without ``vegym/``).
 """
 
@@ -19,6 +26,7 @@ import time
 from collections.abc import Callable
 
 import gymnasium as gym
+import numpy as np
 
 import vegym
 from agents.analytic import controller_for
@@ -28,9 +36,9 @@ VECTOR_SIZES = (1, 64, 1024, 8192)
 
 
 def rate(run: Callable[[int], None], seconds: float) -> float:
-    """Calls of ``run(k)`` per second: after one untimed call (compiling, first-use caches), k doubles until one
-    timing lasts a third of ``seconds``; the best of that timing and two more (about 2 ``seconds`` in all)."""
-    run(1)
+    """Calls of ``run(k)`` per second: k doubles until one timing lasts a third of ``seconds``; the best of that
+    timing and two more (about 2 ``seconds`` in all). The caller has run every code path of ``run`` untimed first
+    (numba compiles a kernel at its first call)."""
     k = 1
     while True:
         start = time.perf_counter()
@@ -53,29 +61,64 @@ def fixed_actions(space: gym.Space, count: int, seed: int = 0) -> list:
 
 
 def single_rate(env_id: str, seconds: float) -> float:
+    """Steps per second of one env through ``gymnasium.make``, resetting (timed, not counted) at each episode's
+    end, after one untimed episode."""
     env = gym.make(env_id)
     env.reset(seed=0)
     actions = fixed_actions(env.action_space, 256)
 
-    def run(k: int) -> None:
+    def run(k: int) -> bool:
+        ended = False
         for i in range(k):
             _, _, terminated, truncated, _ = env.step(actions[i & 255])
             if terminated or truncated:
                 env.reset()
+                ended = True
+        return ended
 
+    while not run(1):
+        pass
     return rate(run, seconds)
 
 
-def vector_rate(env_id: str, num_envs: int, seconds: float) -> float:
+def vector_env(env_id: str, num_envs: int) -> tuple[gym.vector.VectorEnv, list]:
+    """The native vector env reset with seed 0, and the eight actions its loops cycle through."""
     env = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point")
     env.reset(seed=0)
-    actions = fixed_actions(env.action_space, 8)
+    return env, fixed_actions(env.action_space, 8)
+
+
+def vector_rate(env_id: str, num_envs: int, seconds: float) -> float:
+    """Env-steps per second (``step`` calls times ``num_envs``) of the native vector env, after untimed steps up to
+    and including the first autoreset (so that every kernel has compiled)."""
+    env, actions = vector_env(env_id, num_envs)
+    i = 0
+    while True:
+        _, _, terminated, truncated, _ = env.step(actions[i & 7])
+        i += 1
+        if terminated.any() or truncated.any():
+            env.step(actions[i & 7])
+            break
 
     def run(k: int) -> None:
         for i in range(k):
             env.step(actions[i & 7])
 
     return rate(run, seconds) * num_envs
+
+
+def transition_share(env_id: str, num_envs: int) -> float:
+    """The share of the vector loop's counted env-steps that are transitions (not the autoreset that follows an
+    episode's end), over an untimed run of at least 256 steps and 16,384 env-steps."""
+    env, actions = vector_env(env_id, num_envs)
+    steps = max(256, 16384 // num_envs)
+    ended = np.zeros(num_envs, dtype=bool)
+    resets = 0
+    for i in range(steps):
+        resets += np.count_nonzero(ended)
+        _, _, terminated, truncated, _ = env.step(actions[i & 7])
+        ended = terminated | truncated
+    return 1.0 - resets / (steps * num_envs)
 
 
 def predict_rate(env_id: str, num_envs: int, seconds: float) -> float:
@@ -114,9 +157,16 @@ def measure(env_ids: list[str], seconds: float) -> dict:
         for column, measure_one in columns.items():
             row["cartpole"][column], row[column], row["ratio"][column] = paired(measure_one, env_id)
         row["predict_8192"] = predict_rate(env_id, 8192, seconds)
+        row["transition_share"] = {f"vector_{n}": transition_share(env_id, n) for n in VECTOR_SIZES}
         results["envs"][env_id] = row
     for column in columns:
         results["cartpole"][column] = statistics.median(row["cartpole"][column] for row in results["envs"].values())
+    results["cartpole"]["transition_share"] = {f"vector_{n}": transition_share(CARTPOLE, n) for n in VECTOR_SIZES}
+    for row in results["envs"].values():
+        row["ratio_per_transition"] = {
+            column: row["ratio"][column] * share / results["cartpole"]["transition_share"][column]
+            for column, share in row["transition_share"].items()
+        }
     results["peak_memory_mib"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
     return results
 
@@ -132,7 +182,19 @@ def table(results: dict) -> str:
         lines.append(f"| {env_id} | " + " | ".join(cells) + f" | {row['predict_8192']:.3g} |")
     lines.append(
         "\nsteps/s, best of three (median ratio of three back-to-back pairs with CartPole, same loop); "
-        f"peak memory {results['peak_memory_mib']:.0f} MiB"
+        f"peak memory {results['peak_memory_mib']:.0f} MiB\n"
+    )
+    vector_columns = [f"vector_{n}" for n in VECTOR_SIZES]
+    lines.append("| env | " + " | ".join(vector_columns) + " |")
+    lines.append("|" + "---|" * (len(vector_columns) + 1))
+    shares = cart["transition_share"]
+    lines.append(f"| {CARTPOLE} | " + " | ".join(f"{shares[c]:.3f}" for c in vector_columns) + " |")
+    for env_id, row in results["envs"].items():
+        cells = [f"{row['transition_share'][c]:.3f} ({row['ratio_per_transition'][c]:.2f}x)" for c in vector_columns]
+        lines.append(f"| {env_id} | " + " | ".join(cells) + " |")
+    lines.append(
+        "\nshare of the counted env-steps that are transitions, not autoresets (ratio to CartPole per transition: "
+        "the median ratio above times the env's share over CartPole's)"
     )
     return "\n".join(lines)
 
@@ -141,7 +203,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
     parser.add_argument(
-        "--seconds", type=float, default=0.5, help="a third of it is the longest timing; a measurement takes ~2x (s)"
+        "--seconds", type=float, default=0.5, help="a timing lasts 1/3 to 2/3 of it; a measurement about twice it (s)"
     )
     parser.add_argument(
         "--envs", nargs="+", default=list(vegym.ENVS), help="vegym env ids, e.g. Aircraft-v0 (default: all)"

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 import subprocess
 import sys
 from pathlib import Path
@@ -30,3 +31,13 @@ def test_the_speed_benchmark_imports_neither_torch_nor_stable_baselines3() -> No
     )
     result = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True, cwd=ROOT)
     assert result.stdout.strip() == "[]"
+
+
+def test_the_speed_benchmark_counts_autoreset_steps_apart_from_transitions() -> None:
+    """Under NEXT_STEP autoreset a one-step env spends every other step restarting: half its env-steps."""
+    spec = importlib.util.spec_from_file_location("speed", ROOT / "benchmarks" / "speed.py")
+    speed = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(speed)
+    assert speed.transition_share("vegym/Projectile-v0", 4) == 0.5
+    assert 0.9 < speed.transition_share("CartPole-v1", 64) < 1.0
+    assert speed.transition_share("vegym/Aircraft-v0", 64) == 1.0  # 256 steps, within one 300-step episode
