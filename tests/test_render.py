@@ -198,3 +198,104 @@ def test_a_state_put_back_restarts_the_renderers_record_from_it() -> None:
         twin.unwrapped.state = {name: value.copy() for name, value in snapshot.items()}
         twin.step(action)
     np.testing.assert_array_equal(twins[0].render(), twins[1].render())
+
+
+def test_panels_draw_nothing_outside_their_rectangle() -> None:
+    """Scenes that parameters push past their panel (a trail, a terrain, a thread) stay off the text around it."""
+    surface = canvas.new_surface(60, 40)
+    panel = canvas.Panel(surface, (10, 10, 30, 20), (0.0, 1.0, 0.0, 1.0))
+    far = [(-50.0, -50.0), (50.0, 40.0), (-30.0, 60.0)]
+    panel.polyline(np.array(far), canvas.RED, 5)
+    panel.line(far[0], far[1], canvas.RED, 5)
+    panel.polygon(np.array(far), canvas.RED)
+    panel.circle((0.5, 0.5), 3.0, canvas.RED)
+    panel.dot((0.5, 0.5), 100, canvas.RED)
+    panel.arrow((-10.0, 0.5), (30.0, 0.0), canvas.RED, 5)
+    frame = canvas.to_array(surface)
+    inside = np.zeros(frame.shape[:2], bool)
+    inside[10:30, 10:40] = True
+    assert (frame[inside] == canvas.RED).all() and (frame[~inside] == canvas.WHITE).all()
+    assert surface.get_clip() == surface.get_rect()  # the surface's clip is left as it was
+
+
+def test_the_bouncing_ball_is_drawn_to_the_scale_of_the_height_axis(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Its radius in pixels is the radius in metres times the height axis' pixels per metre (the time axis' scale,
+    used before, drew a 0.5 m ball 1.85 times too tall and shrank it as the episode went on)."""
+    dots = []
+    monkeypatch.setattr(canvas.Panel, "dot", lambda panel, center, pixels, color: dots.append((panel, pixels)))
+    env = gym.make("vegym/BouncingBall-v0", render_mode="rgb_array", radius=0.5, target_min=0.6)
+    env.reset(seed=0)
+    for _ in range(3):
+        env.step(env.action_space.sample())
+        dots.clear()
+        env.render()
+        panel, pixels = dots[-1]  # the ball, drawn last
+        assert pixels == round(0.5 * panel.rect.height / (1.08 * env.unwrapped.params.drop_height))
+
+
+def test_a_human_window_shows_a_frame_at_least_every_second(monkeypatch: pytest.MonkeyPatch) -> None:
+    """BouncingBall with little gravity steps 0.03 times a second: real time would hold the window 33 s a frame."""
+    import pygame
+
+    ticks = []
+
+    class Clock:
+        def tick(self, fps: float = 0.0) -> None:
+            ticks.append(fps)
+
+    monkeypatch.setattr(pygame.time, "Clock", Clock)
+    env = gym.make("vegym/BouncingBall-v0", render_mode="human", gravity=0.01)
+    assert env.metadata["render_fps"] < 0.1
+    env.reset(seed=0)
+    env.step(env.action_space.sample())
+    env.close()
+    assert ticks and min(ticks) >= 1.0
+
+
+def test_small_gears_are_drawn_with_teeth_in_proportion(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Teeth 3 mm deep on 2-3 mm gears crossed their centres: star-shaped blades instead of gears."""
+    outlines = []
+    polygon = canvas.Panel.polygon
+    monkeypatch.setattr(
+        canvas.Panel, "polygon", lambda panel, points, *a: outlines.append(points) or polygon(panel, points, *a)
+    )
+    env = gym.make("vegym/GearTrain-v0", render_mode="rgb_array", radius_min=0.002, radius_max=0.003)
+    env.reset(seed=0)
+    env.render()
+    assert outlines
+    for points in outlines:
+        distance = np.linalg.norm(points - points.mean(axis=0), axis=1)
+        assert distance.min() > 0.8 * distance.max()
+
+
+def test_long_episodes_draw_a_bounded_history(monkeypatch: pytest.MonkeyPatch) -> None:
+    """BouncingBall shows its latest flights, and a long line is thinned: frames of long episodes stay legible and
+    quick (a frame drew every flight: 0.9 s and a solid blue block at 5,000 bounces)."""
+    import pygame
+
+    from vegym.render.bouncing_ball import SHOWN_FLIGHTS
+
+    drawn = []
+    lines = pygame.draw.lines
+    monkeypatch.setattr(
+        pygame.draw,
+        "lines",
+        lambda surface, color, closed, points, width: (
+            drawn.append(len(points)) or lines(surface, color, closed, points, width)
+        ),
+    )
+    env = gym.make(
+        "vegym/BouncingBall-v0", render_mode="rgb_array", episode_bounces=100, max_episode_steps=100, rest_speed=0.0
+    )
+    env.reset(seed=0)
+    for _ in range(2 * SHOWN_FLIGHTS):
+        env.step(np.ones(1, np.float32))
+    drawn.clear()
+    env.render()
+    assert len(drawn) == SHOWN_FLIGHTS + 1  # the flights shown and the drop
+
+    panel = canvas.Panel(canvas.new_surface(40, 30), (0, 0, 40, 30), (0.0, 1.0, 0.0, 1.0))
+    drawn.clear()
+    t = np.linspace(0.0, 1.0, 100_000)
+    panel.polyline(np.stack([t, t * t], axis=-1), canvas.BLUE)
+    assert drawn == [4 * (40 + 30)]

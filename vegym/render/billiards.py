@@ -52,7 +52,6 @@ class BilliardsRenderer:
         shown = [a, b, target, *(frame(self.shot[k]) for k in ("rest_a", "rest_b") if self.shot)]
         table = self._table(surface, np.array(shown))
         surface.fill(CLOTH, table.rect)
-        surface.set_clip(table.rect)
         for mark in np.arange(-5.0, 5.0, 0.25):
             table.line((mark, -5.0), (mark, 5.0), CLOTH_LINE)
             table.line((-5.0, mark), (5.0, mark), CLOTH_LINE)
@@ -68,7 +67,6 @@ class BilliardsRenderer:
         else:
             table.circle(a, p.radius_a, BALL_A)
             table.circle(b, p.radius_b, BALL_B)
-        surface.set_clip(None)
         canvas.text(surface, lines, (12, 8), 20)
         canvas.text(
             surface,

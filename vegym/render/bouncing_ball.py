@@ -10,10 +10,12 @@ from vegym.envs.bouncing_ball import BouncingBallParams
 from vegym.render import canvas, clock
 
 WIDTH, HEIGHT = 640, 400
+SHOWN_FLIGHTS = 30
+"""The flights drawn: the latest ones (a long episode's whole history would fill the panel)."""
 
 
 class BouncingBallRenderer:
-    """Records each bounce of a single env and draws the whole episode so far."""
+    """Records each bounce of a single env and draws the episode so far: its latest :data:`SHOWN_FLIGHTS` flights."""
 
     def __init__(self, params: BouncingBallParams) -> None:
         self.params = params
@@ -40,13 +42,16 @@ class BouncingBallRenderer:
         p = self.params
         g, r = p.gravity, p.radius
         surface = canvas.new_surface(WIDTH, HEIGHT)
-        span = max(self.time + 1.5, 4.0)
-        panel = canvas.Panel(surface, (50, 60, WIDTH - 70, HEIGHT - 90), (0.0, span, 0.0, p.drop_height * 1.08))
+        shown = self.flights[-SHOWN_FLIGHTS:]
+        start_time = shown[0][0] if len(self.flights) > SHOWN_FLIGHTS else 0.0
+        span = max(self.time - start_time + 1.5, 4.0)
+        world = (start_time, start_time + span, 0.0, p.drop_height * 1.08)
+        panel = canvas.Panel(surface, (50, 60, WIDTH - 70, HEIGHT - 90), world)
         panel.frame(canvas.LIGHT)
-        panel.line((0, 0), (span, 0), canvas.BLACK, 2)
+        panel.line((start_time, 0), (start_time + span, 0), canvas.BLACK, 2)
         drop = np.linspace(0.0, self.first_impact, 30)
         panel.polyline(np.stack([drop, p.drop_height - 0.5 * g * drop**2], -1), canvas.BLUE)
-        for start, speed, apex, target in self.flights:
+        for start, speed, apex, target in shown:
             duration = 2.0 * speed / g
             if duration > 0:
                 t = np.linspace(0.0, duration, 40)
@@ -57,9 +62,9 @@ class BouncingBallRenderer:
         for k, target in enumerate(self.targets):
             x0 = self.time + 0.25 * k
             panel.line((x0, target), (x0 + 0.2, target), canvas.RED if k == 0 else canvas.ORANGE, 3 if k == 0 else 1)
-        panel.circle((self.time, r), max(r, 0.04), canvas.BLUE)
+        panel.dot((self.time, r), max(3, round(panel.scale[1] * r)), canvas.BLUE)  # sized on the height axis
         for h in np.arange(0.0, p.drop_height * 1.05, canvas.tick_step(p.drop_height, 0.5, 12)):
-            x, y = panel.to_px(0.0, h)
+            x, y = panel.to_px(start_time, h)
             canvas.text(surface, [f"{h:.1f}"], (x - 34, y - 6), 16, canvas.GREY)
         bounce = len(self.flights)
         lines = [f"bounce {bounce}   t = {self.time:.2f} s   next target {self.targets[0]:.2f} m (red)"]

@@ -5,9 +5,11 @@ Nothing here opens a window; :mod:`vegym.render.window` does that for ``render_m
 
 from __future__ import annotations
 
+import functools
 import itertools
 import math
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from typing import Any, TypeVar
 
 import numpy as np
 
@@ -27,6 +29,7 @@ GREEN: Color = (30, 150, 60)
 ORANGE: Color = (235, 140, 20)
 
 _FONTS: dict[int, pygame.font.Font] = {}
+_Draw = TypeVar("_Draw", bound=Callable[..., Any])
 
 
 def tick_step(extent: float, finest: float, most: int) -> float:
@@ -55,8 +58,26 @@ def font(size: int) -> pygame.font.Font:
     return _FONTS[size]
 
 
+def _inside_panel(draw: _Draw) -> _Draw:
+    """``draw`` clipped to its panel's rectangle (within the surface's clip), so that no scene, however far its
+    parameters push it, draws over the text or the other panels."""
+
+    @functools.wraps(draw)
+    def clipped(panel: Panel, *args: Any, **kwargs: Any) -> Any:
+        surface = panel.surface
+        previous = surface.get_clip()
+        surface.set_clip(panel.rect.clip(previous))
+        try:
+            return draw(panel, *args, **kwargs)
+        finally:
+            surface.set_clip(previous)
+
+    return clipped  # type: ignore[return-value]
+
+
 class Panel:
-    """A rectangle of a surface mapped to a world box ``[x0, x1] x [y0, y1]`` (y up), equal scales if asked."""
+    """A rectangle of a surface mapped to a world box ``[x0, x1] x [y0, y1]`` (y up), equal scales if asked. Its
+    drawing methods draw inside the rectangle only."""
 
     def __init__(
         self,
@@ -87,11 +108,19 @@ class Panel:
     def frame(self, color: Color = GREY) -> None:
         pygame.draw.rect(self.surface, color, self.rect, 1)
 
+    @_inside_panel
     def polyline(self, points: np.ndarray, color: Color, width: int = 2) -> None:
-        """Connect world points (k, 2)."""
+        """Connect world points (k, 2). A long line is thinned to evenly spaced points, about four per pixel of
+        the panel's width and height, its first and last kept (an episode's whole history stays quick to draw)."""
+        points = np.asarray(points, dtype=float)
+        most = 4 * (self.rect.width + self.rect.height)
+        if len(points) > most:
+            points = points[np.linspace(0, len(points) - 1, most).round().astype(np.int64)]
         if len(points) >= 2:
-            pygame.draw.lines(self.surface, color, False, [self.to_px(x, y) for x, y in points], width)
+            pixels = np.rint(np.asarray(self.origin) + points * (self.scale[0], -self.scale[1]))
+            pygame.draw.lines(self.surface, color, False, pixels.astype(np.int64).tolist(), width)
 
+    @_inside_panel
     def line(self, a: Sequence[float], b: Sequence[float], color: Color, width: int = 1) -> None:
         pygame.draw.line(self.surface, color, self.to_px(*a), self.to_px(*b), width)
 
@@ -101,27 +130,32 @@ class Panel:
         for i in range(0, 2 * dashes, 2):
             self.line(p[i], p[i + 1], color)
 
+    @_inside_panel
     def circle(self, center: Sequence[float], radius: float, color: Color, width: int = 0) -> None:
-        """A disc, or a ring ``width`` pixels wide inside ``radius``. One around the whole surface is drawn as
-        what shows of it (pygame walks every row of a circle: seconds for millions of pixels)."""
+        """A disc, or a ring ``width`` pixels wide inside ``radius`` (``radius`` measured along x). One around the
+        whole visible area is drawn as what shows of it (pygame walks every row of a circle: seconds for millions
+        of pixels)."""
         px, py = self.to_px(*center)
         pixels = self.length_px(radius)
-        w, h = self.surface.get_size()
-        farthest_corner = math.hypot(max(px, w - px), max(py, h - py))
-        if pixels > farthest_corner + 1:  # the surface lies inside the circle
+        area = self.surface.get_clip()
+        farthest_corner = math.hypot(max(px - area.left, area.right - px), max(py - area.top, area.bottom - py))
+        if pixels > farthest_corner + 1:  # the visible area lies inside the circle
             if width <= 0:
-                self.surface.fill(color)
+                self.surface.fill(color, area)
                 return
             if pixels - width > farthest_corner + 1:  # and inside the ring's hole
                 return
         pygame.draw.circle(self.surface, color, (px, py), pixels, width)
 
+    @_inside_panel
     def dot(self, center: Sequence[float], pixels: int, color: Color) -> None:
         pygame.draw.circle(self.surface, color, self.to_px(*center), pixels)
 
+    @_inside_panel
     def polygon(self, points: np.ndarray, color: Color, width: int = 0) -> None:
         pygame.draw.polygon(self.surface, color, [self.to_px(x, y) for x, y in points], width)
 
+    @_inside_panel
     def arrow(self, start: Sequence[float], vector: Sequence[float], color: Color, width: int = 2) -> None:
         """An arrow from ``start`` along the world ``vector``."""
         a = np.asarray(start, float)

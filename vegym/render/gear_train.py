@@ -53,7 +53,7 @@ class GearTrainRenderer:
         gears = int(s["gears"][0])
         radii, angles = s["radii"][0, :gears], s["angles"][0, :gears]
         centres = np.concatenate([[0.0], np.cumsum(radii[:-1] + radii[1:])])
-        depth = 0.25 * TOOTH_PITCH
+        depth = min(0.25 * TOOTH_PITCH, 0.1 * float(radii.min()))  # teeth in proportion to small gears
         left, right = -radii[0] - depth, centres[-1] + radii[-1] + depth
         pad = 0.08 * (right - left)
         world = (left - pad, right + pad, -p.radius_max - pad, p.radius_max + pad)
@@ -71,7 +71,7 @@ class GearTrainRenderer:
             panel.dot((x, 0.0), 3, canvas.BLACK)
             px, py = panel.to_px(x, -radius - depth)
             label = "motor" if k == 0 else "output" if k == gears - 1 else f"idler {k}"
-            canvas.text(surface, [label, f"r = {radius * 100:.1f} cm"], (px - 30, py + 6), 16, canvas.GREY)
+            canvas.text(surface, [label, f"r = {radius * 100:.3g} cm"], (px - 30, py + 6), 16, canvas.GREY)
         reach = radii[-1] * 1.35
         out = centres[-1]
         panel.dashed((out, 0.0), (out + reach * np.cos(target), reach * np.sin(target)), canvas.GREEN, dashes=5)

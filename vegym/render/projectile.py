@@ -61,9 +61,7 @@ class ProjectileRenderer:
             panel.dot((distance, 0.0), 4, canvas.RED)
         wind = s["wind"]
         w_along, w_across = float(wind @ along), float(wind @ across)
-        surface.set_clip(top.rect)
         top.arrow((reach * 0.8, 0.0), top_view(wind) * 0.9 * half_width / max(p.wind_speed_max, 1e-9), canvas.GREEN)
-        surface.set_clip(None)
         lines = [
             f"target {distance:.1f} m   launch height {p0[1]:.1f} m   "
             f"wind {w_along:+.1f} along, {w_across:+.1f} across m/s"
@@ -75,10 +73,8 @@ class ProjectileRenderer:
             side.polyline(np.stack([path @ along, path[:, 1] + p0[1]], -1), canvas.BLUE)
             landing = self.shot["landing_point"] - p0
             side.dot((float(landing @ along), p.radius), 4, canvas.BLUE)
-            surface.set_clip(top.rect)
             top.polyline(top_view(path), canvas.BLUE)
             top.dot(tuple(top_view(landing)), 4, canvas.BLUE)
-            surface.set_clip(None)
             speed = float(np.linalg.norm(v0))
             elevation = np.degrees(np.arcsin(v0[1] / speed)) if speed > 0 else 0.0
             verdict = "HIT" if self.shot["is_success"] else "miss"

@@ -127,13 +127,10 @@ class SteerableWheelRenderer:
         s = self.state
         index = int(s["index"])
         t = float(s["step"]) * p.dt
-        header = [
-            f"t = {t:.1f} s   waypoint {min(index + 1, p.n_waypoints)} of {p.n_waypoints}"
-            f"   passed {index}   return {self.total_reward:+.2f}"
-        ]
+        header = f"t = {t:.1f} s   waypoint {min(index + 1, p.n_waypoints)} of {p.n_waypoints}   passed {index}"
         if self.last.get("is_success"):
-            header.append("all waypoints passed")
-        canvas.text(surface, header, (20, 12), 24)
+            header = f"t = {t:.1f} s   all {p.n_waypoints} waypoints passed"
+        canvas.text(surface, [f"{header}   return {self.total_reward:+.2f}"], (20, 12), 24)
         canvas.text(
             surface,
             ["top view (m): x right, z down; blue ring: start; waypoints grey: passed, red: next, orange: later"],

@@ -7,12 +7,16 @@ import weakref
 import numpy as np
 import pygame
 
+LONGEST_FRAME = 1.0
+"""Seconds a frame stays at most: an env whose steps last longer (BouncingBall with little gravity, say) is shown
+faster than real time rather than holding the window, which cannot be interrupted while it waits."""
 _SHOWING: weakref.WeakSet[Window] = weakref.WeakSet()
 """The windows that have shown a frame and are not closed nor collected: they share pygame's one display."""
 
 
 class Window:
-    """Shows RGB frames at ``fps`` frames per second (``pygame.display.init()`` on the first frame).
+    """Shows RGB frames at ``fps`` frames per second, at least one per :data:`LONGEST_FRAME` seconds
+    (``pygame.display.init()`` on the first frame).
 
     pygame has one display per process: windows of several envs take turns in it (the display takes each one's
     size and title when it shows a frame), and it is closed with the last of them. A display stopped elsewhere
@@ -38,7 +42,7 @@ class Window:
         pygame.event.pump()
         screen.blit(pygame.surfarray.make_surface(np.transpose(frame, (1, 0, 2))), (0, 0))
         pygame.display.flip()
-        self._clock.tick(self.fps)
+        self._clock.tick(max(self.fps, 1.0 / LONGEST_FRAME))
 
     def close(self) -> None:
         """Leave the display; the last window showing closes it."""
