@@ -475,6 +475,26 @@ def test_vector_seeds_span_uint64_and_none_leaves_a_sub_env_unseeded() -> None:
             vec.reset(seed=bad)
 
 
+def test_a_seed_outside_uint64_raises_before_the_env_changes() -> None:
+    """Episode keys come from seeds in [0, 2**64); a larger or negative one raises, and the env (its np_random, its
+    episode) is as it was: the next step is the one it would have taken."""
+    env_id = "vegym/Aircraft-v0"
+    action = np.full(3, 0.3, np.float32)
+    single, vec = gym.make(env_id), gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point")
+    for env, bad_seeds in ((single, (2**64, -1)), (vec, (2**64 - 1, -1, [0, 2**64]))):
+        env.reset(seed=3)
+        reference = copy.deepcopy(env)
+        for bad in bad_seeds:
+            with pytest.raises(ValueError, match="seed"):
+                env.reset(seed=bad)
+        assert env.np_random_seed == reference.np_random_seed == 3
+        assert_same(
+            env.step(np.broadcast_to(action, env.action_space.shape)),
+            reference.step(np.broadcast_to(action, env.action_space.shape)),
+        )
+        assert_same(env.reset(), reference.reset())
+
+
 def test_vector_reset_mask_is_held_to_sync_vector_env_rules() -> None:
     """A reset mask that SyncVectorEnv refuses is refused alike, so code written against one runs on the other."""
     env_id = "vegym/BouncingBall-v0"

@@ -567,10 +567,11 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
             self._get_renderer().reset(self._snapshot())
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, Info]:
+        seeded = rng.seed_keys([seed]) if seed is not None else None  # a bad seed raises before anything changes
         super().reset(seed=seed)
         state = self.state
         if state is None:
-            key = rng.seed_keys([seed]) if seed is not None else self.np_random.integers(0, 2**64, 1, np.uint64)
+            key = seeded if seeded is not None else self.np_random.integers(0, 2**64, 1, np.uint64)
             self._bind(owned({**self.task.initial_state(key), "key": key, "step": np.zeros(1, dtype=np.int64)}))
             self.task.observe(self.state, self._out["obs"])
         else:
@@ -580,7 +581,7 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
                 self._steps[0] = 0
                 self._restart()
             else:
-                state["key"][:] = rng.seed_keys(np.array([seed]))
+                state["key"][:] = seeded
                 self.task.start(state, state["key"], _ROW_0)
                 state["step"][0] = 0
                 self.task.observe(state, self._out["obs"])
@@ -799,11 +800,9 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             mask = np.ones(self.num_envs, dtype=bool)
         if mask is not None:
             return self._reset_masked(seed, mask)
+        seeded = self._seed_keys(seed) if seed is not None else None  # a bad seed raises before anything changes
         super().reset(seed=int(seed) if _is_integer(seed) else None)
-        if seed is None:
-            keys = self.np_random.integers(0, 2**64, size=self.num_envs, dtype=np.uint64)
-        else:
-            keys = self._seed_keys(seed)
+        keys = seeded if seeded is not None else self.np_random.integers(0, 2**64, size=self.num_envs, dtype=np.uint64)
         self.state = owned(
             {**self.task.initial_state(keys), "key": keys, "step": np.zeros(self.num_envs, dtype=np.int64)}
         )
