@@ -58,7 +58,14 @@ class BilliardsParams(Params):
             allowed = f"[0, acos((radius_a + radius_b) / ball_distance_min) = {self.largest_bearing:.6g})"
             raise invalid("bearing_max", self.bearing_max, allowed)
         if not self.required_speed <= self.speed_max:
-            raise invalid("speed_max", self.speed_max, f"[required_speed={self.required_speed:.4g}, inf)")
+            raise invalid(
+                "speed_max",
+                self.speed_max,
+                f"[required_speed={self.required_speed:.4g}, inf): the strike the farthest target at bearing_max needs "
+                f"(with restitution={self.restitution:g}, mass_a={self.mass_a:g}, mass_b={self.mass_b:g}, "
+                f"deceleration={self.deceleration:g}, target_distance_max={self.target_distance_max:g}, "
+                f"bearing_max={self.bearing_max:g}); raise speed_max or ease those",
+            )
 
     @property
     def contact_distance(self) -> float:

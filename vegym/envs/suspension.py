@@ -66,7 +66,11 @@ class SuspensionParams(Params):
             raise invalid("wavelength_min", self.wavelength_min, f"(0, wavelength_max={self.wavelength_max}]")
         stable = self.spring.max_stable_step(self.damping_max)
         if self.dt >= stable:
-            raise invalid("dt", self.dt, f"(0, {stable:.4g}): semi-implicit Euler is unstable at damping_max")
+            allowed = (
+                f"(0, {stable:.4g}): semi-implicit Euler is unstable beyond it, for damping_max={self.damping_max:g}, "
+                f"mass={self.mass:g}, modulus={self.modulus:g} and natural_length={self.natural_length:g}"
+            )
+            raise invalid("dt", self.dt, allowed)
 
     @property
     def spring(self) -> SpringParams:
