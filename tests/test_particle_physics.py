@@ -132,6 +132,23 @@ def test_event_step_rejects_a_start_below_the_ground() -> None:
         particle.event_step(np.array([0.05]), np.array([0.0]), 0.1, 1.0, ParticleParams(radius=0.1))
 
 
+def test_event_step_ending_ulps_short_of_a_contact_stays_on_or_above_the_ground() -> None:
+    """h >= r after every step: a step a few ulps short of the contact time used to round the height below r
+    (-3.6e-16 m), which the next step refused as a start below the ground."""
+    params = ParticleParams(radius=0.1)
+    rng = np.random.default_rng(0)
+    h0, v0 = rng.uniform(0.2, 3.0, 2000), rng.uniform(-8.0, 8.0, 2000)
+    contact = particle.time_to_ground(h0, v0, params.radius, params.gravity)
+    for ulps in (1, 2, 3):
+        dt = contact
+        for _ in range(ulps):
+            dt = np.nextafter(dt, 0.0)
+        for h, v, step in zip(h0, v0, dt, strict=True):
+            h1, v1 = particle.event_step(np.array([h]), np.array([v]), float(step), 0.8, params)
+            assert h1[0] >= params.radius
+            particle.event_step(h1, v1, 0.01, 0.8, params)  # and the next step starts from it
+
+
 def test_batched_functions_equal_looped_bit_for_bit() -> None:
     rng = np.random.default_rng(2)
     params = ParticleParams(gravity=G, radius=0.1)

@@ -170,7 +170,7 @@ def event_step(
         lands = active & (tg <= t_left)
         flies = active & ~lands
         h_fly, v_fly = state_at(h, v, t_left, g)
-        h = np.where(flies, h_fly, h)
+        h = np.where(flies, np.maximum(h_fly, r), h)  # short of the contact by ulps, rounding can dip below r
         v = np.where(flies, v_fly, v)
         rebound = -e * impact_velocity(h, v, r, g)
         t_left = np.where(lands, t_left - tg, t_left)
