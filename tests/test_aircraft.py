@@ -310,6 +310,16 @@ def test_tracking_reward_terms_are_the_documented_clipped_errors(
     assert reward == pytest.approx(sum(terms.values()))
 
 
+def test_the_heading_error_is_wrapped_across_pi() -> None:
+    """Heading 3.0 rad toward a demand of -3.0: the error is 2 pi - 6 = 0.283 rad (a left turn), not -6 rad, in the
+    reward term, info["errors"] and the observation's sine and cosine."""
+    wrapped = 2.0 * math.pi - 6.0
+    _, obs, _, info = fly_one_step_from(2000.0, 120.0, 3.0, (2000.0, 120.0, -3.0))
+    assert info["errors"][2] == pytest.approx(wrapped, rel=1e-9)
+    assert info["reward_terms"]["heading"] == pytest.approx(-wrapped / (3 * math.pi), rel=1e-9)
+    assert obs[2:4] == pytest.approx([math.sin(wrapped), math.cos(wrapped)], abs=1e-6)
+
+
 @pytest.mark.parametrize(
     ("errors", "success"),
     [

@@ -190,6 +190,21 @@ def test_book_variant_lags_the_commands_by_one_step_and_flies_the_old_heading() 
     np.testing.assert_allclose(second.position - first.position, [[100.5 * math.sin(0.5), 10.0, 100.5 * math.cos(0.5)]])
 
 
+def test_book_lateral_velocity_saturates_at_v_tan_m_dt_so_a_step_turns_at_most_m_dt() -> None:
+    """PHYSICS.md section 10: the book's lateral velocity is limited to ``V = v tan(M dt)``, so that the heading
+    change ``atan(v_x / v)`` of a step is at most ``M dt`` whatever the command."""
+    params = AircraftParams(book_faithful=True)
+    dt, speed = 0.5, 100.0
+    assert aircraft.lateral_limit(np.array([speed]), dt, params)[0] == pytest.approx(
+        speed * math.tan(params.max_turn_rate * dt), rel=1e-12
+    )
+    for sign in (1.0, -1.0):
+        start = aircraft.initial_state([[0.0, 1000.0, 0.0]], speed, 0.2)
+        first, _ = aircraft.step(start, np.array([[0.0, 0.0, sign * 1e3]]), dt, params)  # lagged by a step
+        second, _ = aircraft.step(first, np.zeros((1, 3)), dt, params)
+        assert second.heading[0] == pytest.approx(0.2 + sign * params.max_turn_rate * dt, rel=1e-12)
+
+
 def test_lagged_speed_loop_diverges_at_k_dt_above_one_where_the_clean_loop_converges() -> None:
     wide = {"max_acceleration": 1e6, "max_deceleration": 1e6, "min_speed": 1e-3, "max_speed": 1e9}
     gains = AutopilotGains(speed_gain=1.1)

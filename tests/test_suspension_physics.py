@@ -43,6 +43,14 @@ def test_derived_values_are_the_closed_forms() -> None:
     assert w2 * h * h + 2.0 * beta * h == pytest.approx(4.0, rel=1e-12)
 
 
+def test_stiffness_is_the_modulus_over_the_natural_length() -> None:
+    """``k = lambda / l`` (8.89): CHECK's l = 1 m cannot tell it from ``k = lambda``."""
+    spring = SpringParams(mass=2.0, modulus=80.0, natural_length=0.4)
+    assert spring.stiffness == pytest.approx(200.0, rel=1e-15)
+    assert spring.period == pytest.approx(2.0 * math.pi * math.sqrt(2.0 * 0.4 / 80.0), rel=1e-15)
+    assert spring.static_length == pytest.approx(0.4 - 2.0 * 9.81 / 200.0, rel=1e-15)
+
+
 @pytest.mark.parametrize("amplitude", [0.01, 0.2])
 def test_free_oscillation_has_period_2_pi_sqrt_m_l_over_lambda_about_the_static_length(amplitude: float) -> None:
     dt = 1e-3
