@@ -292,10 +292,16 @@ def test_long_episodes_draw_a_bounded_history(monkeypatch: pytest.MonkeyPatch) -
         env.step(np.ones(1, np.float32))
     drawn.clear()
     env.render()
-    assert len(drawn) == SHOWN_FLIGHTS + 1  # the flights shown and the drop
+    assert len(drawn) == SHOWN_FLIGHTS  # the flights shown; the drop, long before them, is out of view
 
     panel = canvas.Panel(canvas.new_surface(40, 30), (0, 0, 40, 30), (0.0, 1.0, 0.0, 1.0))
     drawn.clear()
     t = np.linspace(0.0, 1.0, 100_000)
     panel.polyline(np.stack([t, t * t], axis=-1), canvas.BLUE)
     assert drawn == [4 * (40 + 30)]
+
+
+def test_a_panel_maps_many_points_to_the_pixels_it_maps_each_to() -> None:
+    panel = canvas.Panel(canvas.new_surface(100, 80), (5, 5, 90, 70), (-3.3, 7.1, -2.2, 5.5))
+    points = np.random.default_rng(0).uniform(-5.0, 9.0, (1000, 2))
+    assert panel.pixels(points) == [list(panel.to_px(x, y)) for x, y in points]

@@ -49,8 +49,9 @@ class BouncingBallRenderer:
         panel = canvas.Panel(surface, (50, 60, WIDTH - 70, HEIGHT - 90), world)
         panel.frame(canvas.LIGHT)
         panel.line((start_time, 0), (start_time + span, 0), canvas.BLACK, 2)
-        drop = np.linspace(0.0, self.first_impact, 30)
-        panel.polyline(np.stack([drop, p.drop_height - 0.5 * g * drop**2], -1), canvas.BLUE)
+        if start_time == 0.0:  # the drop, before the first impact, while it is in view
+            drop = np.linspace(0.0, self.first_impact, 30)
+            panel.polyline(np.stack([drop, p.drop_height - 0.5 * g * drop**2], -1), canvas.BLUE)
         for start, speed, apex, target in shown:
             duration = 2.0 * speed / g
             if duration > 0:

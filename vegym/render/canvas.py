@@ -101,6 +101,11 @@ class Panel:
         """Pixel of the world point (x, y)."""
         return int(round(self.origin[0] + self.scale[0] * x)), int(round(self.origin[1] - self.scale[1] * y))
 
+    def pixels(self, points: np.ndarray) -> list[list[int]]:
+        """Pixels of world points (k, 2), as :meth:`to_px` gives them one by one."""
+        pixels = np.rint(np.asarray(self.origin) + np.asarray(points, dtype=float) * (self.scale[0], -self.scale[1]))
+        return pixels.astype(np.int64).tolist()
+
     def length_px(self, length: float) -> int:
         """Pixels of a world length along x."""
         return max(1, int(round(self.scale[0] * length)))
@@ -117,8 +122,7 @@ class Panel:
         if len(points) > most:
             points = points[np.linspace(0, len(points) - 1, most).round().astype(np.int64)]
         if len(points) >= 2:
-            pixels = np.rint(np.asarray(self.origin) + points * (self.scale[0], -self.scale[1]))
-            pygame.draw.lines(self.surface, color, False, pixels.astype(np.int64).tolist(), width)
+            pygame.draw.lines(self.surface, color, False, self.pixels(points), width)
 
     @_inside_panel
     def line(self, a: Sequence[float], b: Sequence[float], color: Color, width: int = 1) -> None:
@@ -153,7 +157,7 @@ class Panel:
 
     @_inside_panel
     def polygon(self, points: np.ndarray, color: Color, width: int = 0) -> None:
-        pygame.draw.polygon(self.surface, color, [self.to_px(x, y) for x, y in points], width)
+        pygame.draw.polygon(self.surface, color, self.pixels(points), width)
 
     @_inside_panel
     def arrow(self, start: Sequence[float], vector: Sequence[float], color: Color, width: int = 2) -> None:
