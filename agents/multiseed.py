@@ -31,6 +31,7 @@ from agents.training import (
     TrainResult,
     interrupts_handled,
     latest_model,
+    raise_keyboard_interrupt,
     resume_config,
     seed_dir,
     train,
@@ -143,7 +144,7 @@ def train_seeds(
     outcomes: dict[int, SeedOutcome] = {}
     stopping, stopped_at = False, 0.0
     with (
-        interrupts_handled(_raise_keyboard_interrupt),
+        interrupts_handled(raise_keyboard_interrupt),
         Progress(
             TextColumn("{task.description}"),
             BarColumn(),
@@ -192,12 +193,6 @@ def _block_sigint(block: bool) -> None:
     if block:  # multiprocessing starts its resource tracker with the first process, then unblocks SIGINT
         resource_tracker.ensure_running()
     signal.pthread_sigmask(signal.SIG_BLOCK if block else signal.SIG_UNBLOCK, {signal.SIGINT})
-
-
-def _raise_keyboard_interrupt(signum: int, frame: Any) -> None:
-    """Signal handler: SIGINT or SIGTERM as Ctrl-C, also where SIGINT came in ignored (a background job of a
-    script) and where SIGTERM would end the parent without its workers."""
-    raise KeyboardInterrupt
 
 
 def _collect(

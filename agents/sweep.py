@@ -47,7 +47,7 @@ from stable_baselines3.common.callbacks import BaseCallback
 
 from agents.config import CONFIG_DIR, TrainConfig, env_params, load_config, make_kwargs, with_overrides, zoo_entry
 from agents.evaluation import BASELINES, LearnedAgent, evaluate, load_learned, normalized, run_episode
-from agents.training import train
+from agents.training import interrupts_handled, raise_keyboard_interrupt, train
 
 SWEEP_EVAL_SEED = 5000
 """First seed of a sweep's evaluation episodes."""
@@ -440,7 +440,9 @@ def run_worker(settings: SweepSettings, name: str = "worker", log: Callable[[str
 
 
 def _worker_process(settings: SweepSettings, name: str, threads: int) -> None:
-    """Entry point of a ``--workers`` process (spawned: imports afresh, so torch's thread count is set again)."""
+    """Entry point of a ``--workers`` process (spawned: imports afresh, so torch's thread count is set again). A
+    SIGINT ignored by the parent (a background job of a script) would be ignored here too: Ctrl-C's handler again."""
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     torch.set_num_threads(threads)
     try:
         run_worker(settings, name, log=lambda line: print(line, flush=True))
@@ -469,18 +471,20 @@ def sweep(
         context.Process(target=_worker_process, args=(settings, f"worker {k}", threads), name=f"vegym-sweep-{k}")
         for k in range(workers)
     ]
-    for process in processes:
-        process.start()
-    try:
-        for process in processes:
-            process.join()
-    except KeyboardInterrupt:
-        for process in processes:  # a SIGINT to this process alone (not its group) stops the workers too
-            if process.is_alive():
-                os.kill(process.pid, signal.SIGINT)
-        for process in processes:
-            process.join()
-        raise
+    with interrupts_handled(raise_keyboard_interrupt):  # also where SIGINT came in ignored, and for SIGTERM
+        try:
+            for process in processes:
+                process.start()
+            for process in processes:
+                process.join()
+        except KeyboardInterrupt:
+            started = [process for process in processes if process.pid is not None]
+            for process in started:  # a signal to this process alone (not its group) stops the workers too
+                if process.is_alive():
+                    os.kill(process.pid, signal.SIGINT)
+            for process in started:
+                process.join()
+            raise
     failed = [f"{p.name} (exit code {p.exitcode})" for p in processes if p.exitcode not in (0, None)]
     finished = len(study.get_trials(deepcopy=False, states=FINISHED))
     if failed and finished < settings.trials:

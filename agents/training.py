@@ -170,6 +170,12 @@ def interrupts_handled(handler: Callable[[int, Any], None]) -> Iterator[None]:
             signal.signal(signum, signal.SIG_DFL if before is None else before)
 
 
+def raise_keyboard_interrupt(signum: int, frame: Any) -> None:
+    """Signal handler: SIGINT or SIGTERM as Ctrl-C, also where SIGINT came in ignored (a background job of a
+    script) and where SIGTERM would end a parent process without its workers."""
+    raise KeyboardInterrupt
+
+
 class StopOnInterrupt(BaseCallback):
     """Turns the first SIGINT (Ctrl-C) or SIGTERM within :meth:`catching` into a clean stop at the next env step; a
     later one aborts (KeyboardInterrupt). Also stops there once ``stop`` (an event, e.g. a parent process's) is set."""

@@ -258,15 +258,25 @@ def test_an_env_without_a_config_entry_is_refused_before_the_study_is_created(
     assert not database.exists()
 
 
-def test_sigint_to_the_parent_alone_stops_its_workers(tmp_path: Path) -> None:
+@pytest.mark.parametrize(
+    ("signum", "sigint_ignored"),
+    [(signal.SIGINT, False), (signal.SIGINT, True), (signal.SIGTERM, False)],
+    ids=["sigint", "sigint_to_a_background_job", "sigterm"],
+)
+def test_an_interrupt_to_the_parent_alone_stops_its_workers(
+    tmp_path: Path, signum: signal.Signals, sigint_ignored: bool
+) -> None:
+    """A script's background job starts with SIGINT ignored, and its workers inherit that: the parent (which
+    forwards the interrupt) and the workers handle Ctrl-C anyway. SIGTERM stops them as Ctrl-C does."""
     storage = f"sqlite:///{tmp_path / 'study.db'}"
     args = [*sweep_args(storage, "stopped", 50, tmp_path / "best.yml", "--workers", "2"), "--timesteps", "1000000"]
-    parent = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    ignore = (lambda: signal.signal(signal.SIGINT, signal.SIG_IGN)) if sigint_ignored else None
+    parent = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, preexec_fn=ignore)
     deadline = time.monotonic() + 300
     while training_trials(tmp_path / "study.db") < 2:
         if time.monotonic() > deadline:
             parent.kill()
             pytest.fail("the workers never started their trials")
         time.sleep(0.2)
-    parent.send_signal(signal.SIGINT)  # to the parent's pid only: the workers hear of it from the parent
+    parent.send_signal(signum)  # to the parent's pid only: the workers hear of it from the parent
     assert parent.wait(timeout=60) == 130
