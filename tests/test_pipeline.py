@@ -196,6 +196,10 @@ def test_off_policy_tuple_and_noise_settings(tmp_path: Path) -> None:
         ("  n_timesteps: 1000\n  policy_kwargs: \"__import__('os').getcwd()\"\n", "is not a literal"),
         ('  n_timesteps: 1000\n  policy_kwargs: "dict(net_arch=os.sep)"\n', "is not a literal"),
         ("  n_timesteps: 1000\n  policy_kwargs: 'dict(net_arch=[64'\n", "is not a dict expression"),
+        ("  n_timesteps: 1000\n  seed: -1\n", "seed=-1 must be non-negative"),
+        ("  n_timesteps: 1000\n  save_freq: 0\n", "save_freq=0 must be at least 1"),
+        ("  n_timesteps: 1000\n  _init_setup_model: false\n", "unknown key '_init_setup_model'"),  # private
+        ("  n_timesteps: 1000\n  policy_kwargs: {lr_schedule: 1}\n", "unknown key 'lr_schedule'"),  # the algo's
     ],
 )
 def test_bad_config_is_rejected_naming_file_and_key(tmp_path: Path, entry: str, message: str) -> None:
@@ -204,6 +208,33 @@ def test_bad_config_is_rejected_naming_file_and_key(tmp_path: Path, entry: str, 
         load_config(path, "vegym/BouncingBall-v0")
     assert str(path) in str(caught.value)
     assert message in str(caught.value)
+
+
+@pytest.mark.parametrize(
+    ("entry", "message"),
+    [
+        ("  noise_type: uniform\n", "noise_type='uniform'; choose one of"),
+        ("  noise_type: normal\n  noise_std: -0.5\n", "noise_std=-0.5 must be non-negative"),
+    ],
+)
+def test_bad_action_noise_is_rejected(tmp_path: Path, entry: str, message: str) -> None:
+    path = write_config(tmp_path, "vegym/Projectile-v0:\n  n_timesteps: 1000\n" + entry, "td3.yml")
+    with pytest.raises(ConfigError, match=re.escape(message)):
+        load_config(path, "vegym/Projectile-v0")
+
+
+def test_a_numeric_string_for_a_number_or_string_setting_is_the_number(tmp_path: Path) -> None:
+    path = write_config(tmp_path, "vegym/Projectile-v0:\n  n_timesteps: 1000\n  ent_coef: '0.1'\n", "sac.yml")
+    ent_coef = load_config(path, "vegym/Projectile-v0").hyperparams["ent_coef"]  # float | str ("auto_0.1")
+    assert ent_coef == 0.1 and isinstance(ent_coef, float)
+
+
+def test_vec_normalize_takes_the_algorithm_s_gamma_unless_its_own_is_given(tmp_path: Path) -> None:
+    entry = "vegym/Projectile-v0:\n  n_timesteps: 1000\n  gamma: 0.9\n  normalize: {}\n"
+    own = load_config(write_config(tmp_path, entry.format("{gamma: 0.5}")), "vegym/Projectile-v0")
+    assert own.normalize_kwargs()["gamma"] == 0.5
+    inherited = load_config(write_config(tmp_path, entry.format("true")), "vegym/Projectile-v0")
+    assert inherited.normalize_kwargs()["gamma"] == 0.9
 
 
 def test_config_file_errors(tmp_path: Path) -> None:
