@@ -27,6 +27,31 @@ def test_mean_and_iqm_are_the_closed_forms_and_the_intervals_contain_them() -> N
     assert summarize(scores) == summary  # seeded: a report is reproducible
 
 
+def test_the_iqm_interval_is_the_iqm_s_and_ignores_outliers_that_move_the_mean_s() -> None:
+    scores = np.random.default_rng(0).normal(1.0, 0.2, (3, 20))
+    scores[0, :3] = -5.0
+    summary = summarize(scores)
+    assert summary.mean_ci95[0] < 0.0 < 0.8 < summary.iqm_ci95[0]
+
+
+def test_the_seeded_intervals_of_a_fixed_matrix_do_not_change() -> None:
+    """The README publishes these intervals: their resampling (seed, streams, replicate count, the IQM's 25% trim)
+    must not change unnoticed."""
+    scores = np.random.default_rng(0).normal(1.0, 0.2, (3, 20))
+    scores[0, :3] = -5.0
+    summary = summarize(scores)
+    assert summary.mean_ci95 == pytest.approx((-0.2156599, 1.0907305), abs=1e-7)
+    assert summary.iqm_ci95 == pytest.approx((0.8822851, 1.1081839), abs=1e-7)
+
+
+def test_seeds_resampled_whole_give_the_exact_bootstrap_quantiles() -> None:
+    """Five seeds scoring 0, 1, 2, 3, 4 on every episode: a replicate's mean is that of five seeds drawn with
+    replacement, whose sum is at most 3 with probability C(8, 5) / 5^5 = 1.8% and at most 4 with C(9, 5) / 5^5 =
+    4.0%, so the 2.5% quantile is 4 / 5 and, by symmetry, the 97.5% quantile 16 / 5."""
+    scores = np.repeat(np.arange(5.0)[:, None], 20, axis=1)
+    assert summarize(scores).mean_ci95 == pytest.approx((0.8, 3.2), abs=1e-12)
+
+
 def test_disagreeing_training_seeds_widen_the_interval() -> None:
     """The bootstrap resamples training seeds: the same episodes with one seed far off give a wider CI."""
     episodes = np.random.default_rng(1).normal(1.0, 0.05, 20)
