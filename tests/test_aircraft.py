@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import gymnasium as gym
 import numpy as np
@@ -344,3 +345,19 @@ def test_observed_airspeed_is_its_fraction_of_the_airframe_range(speed: float) -
     """Observation Space: obs[4] is ``(v - min_speed) / (max_speed - min_speed)``."""
     p, obs, _, _ = fly_one_step_from(1400.0, speed, 0.0, (1400.0, 120.0, 0.0))
     assert obs[4] == pytest.approx((speed - p.min_speed) / (p.max_speed - p.min_speed), abs=1e-7)
+
+
+def test_starting_states_fill_their_documented_ranges_with_independent_draws(
+    assert_independent_draws_fill: Callable,
+) -> None:
+    p = AircraftEnvParams(draft_max=2.0)
+    state = AircraftTask(p).initial_state(rng.seed_keys(np.arange(4000)))
+    assert (state["position"][:, [0, 2]] == 0.0).all()
+    assert_independent_draws_fill(
+        {
+            "altitude": (state["position"][:, 1], p.altitude_min, p.altitude_max),
+            "speed": (state["speed"], p.speed_demand_min, p.speed_demand_max),
+            "heading": (state["heading"], -math.pi, math.pi),
+            "draft": (state["draft"], -p.draft_max, p.draft_max),
+        }
+    )

@@ -26,6 +26,7 @@ from stable_baselines3.common.env_checker import check_env as sb3_check_env
 import vegym
 from agents.analytic import controller_for
 from agents.evaluation import REFERENCE_AGENTS
+from vegym import rng
 from vegym.envs import base
 
 ENV_IDS = list(vegym.ENVS)
@@ -684,6 +685,22 @@ def test_restart_starts_the_next_episodes_of_its_rows_as_start_and_observe_do(en
         np.testing.assert_array_equal(fused[name][others], before[name][others], err_msg=name)
     np.testing.assert_array_equal(fused_obs, default_obs)
     assert (fused_obs[others] == -7.0).all()
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_start_writes_into_its_rows_what_initial_state_draws_from_the_same_keys(env_id: str) -> None:
+    """Tasks whose episodes restart often start them by a kernel of their own (autoresets, masked and seedless
+    resets), beside ``initial_state`` (the first reset): both must draw the same episodes from the same keys."""
+    vec = gym.make_vec(env_id, num_envs=12, vectorization_mode="vector_entry_point")
+    vec.reset(seed=6)
+    for _ in range(3):
+        vec.step(vec.action_space.sample())
+    task, state = vec.unwrapped.task, copy.deepcopy(vec.unwrapped.state)
+    rows, keys = np.array([11, 0, 4, 3]), rng.seed_keys([100, 101, 102, 103])
+    task.start(state, keys, rows)
+    fresh = task.initial_state(keys)
+    for name in fresh.keys() - {"key", "step"}:
+        np.testing.assert_array_equal(state[name][rows], fresh[name], err_msg=name)
 
 
 _FAULTS_PER_STEP = """

@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import gymnasium as gym
 import numpy as np
 import pytest
 
 import vegym  # noqa: F401
 from agents.analytic import controller_for
+from vegym import rng
 from vegym.envs.projectile import ProjectileEnvParams
 from vegym.physics import projectile
 
@@ -86,3 +89,24 @@ def test_targets_beyond_the_reachable_envelope_are_rejected() -> None:
     with pytest.raises(ValueError, match="wind_speed_max"):
         ProjectileEnvParams(wind_speed_max=40.0)
     assert ProjectileEnvParams().reachable_distance >= 60.0
+
+
+def test_starting_states_fill_their_documented_ranges_with_independent_draws(
+    assert_independent_draws_fill: Callable,
+) -> None:
+    env = gym.make("vegym/Projectile-v0")
+    p = env.unwrapped.params
+    state = env.unwrapped.task.initial_state(rng.seed_keys(np.arange(4000)))
+    launch, target, wind, bearing = state["launch_position"], state["target"], state["wind"], state["bearing"]
+    assert (launch[:, [0, 2]] == 0.0).all() and (target[:, 1] == 0.0).all() and (wind[:, 1] == 0.0).all()
+    distance = np.hypot(target[:, 0], target[:, 2])
+    np.testing.assert_allclose(target[:, [0, 2]], distance[:, None] * np.stack([np.cos(bearing), np.sin(bearing)], -1))
+    assert_independent_draws_fill(
+        {
+            "launch height": (launch[:, 1], p.launch_height_min, p.launch_height_max),
+            "target distance": (distance, p.target_distance_min, p.target_distance_max),
+            "target bearing": (bearing, -np.pi, np.pi),
+            "wind speed": (np.hypot(wind[:, 0], wind[:, 2]), 0.0, p.wind_speed_max),
+            "wind direction": (np.arctan2(wind[:, 2], wind[:, 0]), -np.pi, np.pi),
+        }
+    )
