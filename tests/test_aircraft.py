@@ -267,6 +267,8 @@ def test_gusty_is_aircraft_with_drafts_and_gusts_by_registration() -> None:
         ({"change_interval_min": 130.0}, "change_interval_min"),
         ({"altitude_scale": 0.0}, "altitude_scale"),
         ({"episode_steps": 0}, "episode_steps"),
+        ({"altitude_min": 1700.0}, "altitude_min=1700.0 is outside the allowed range .*altitude_max=1600.0"),
+        ({"speed_demand_min": 50.0}, "speed_demand_min=50.0 is outside the allowed range .min_speed=60.0"),
     ],
 )
 def test_bad_parameters_raise_value_error_naming_them(kwargs: dict, name: str) -> None:

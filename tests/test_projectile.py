@@ -84,11 +84,31 @@ def test_hit_bonus_is_full_at_the_centre_and_falls_to_zero_at_the_rim() -> None:
 
 
 def test_targets_beyond_the_reachable_envelope_are_rejected() -> None:
-    with pytest.raises(ValueError, match="target_distance_max"):
-        ProjectileEnvParams(target_distance_max=100.0)
+    """The guaranteed range is the wind-free maximum range ``(v/g) sqrt(v^2 + 2 g h)`` of the launch speed left
+    after the strongest wind, ``v = speed_max - wind_speed_max``, from the lowest launch, ``h = launch_height_min -
+    radius`` above the landing height."""
+    p = ProjectileEnvParams()
+    v, g, h = p.speed_max - p.wind_speed_max, p.gravity, p.launch_height_min - p.radius
+    assert p.reachable_distance == pytest.approx(v / g * np.sqrt(v * v + 2 * g * h), rel=1e-12)
+    assert 60.0 < p.reachable_distance < 70.0
+    with pytest.raises(ValueError, match="target_distance_max=70.0 is outside the allowed range"):
+        ProjectileEnvParams(target_distance_max=70.0)
     with pytest.raises(ValueError, match="wind_speed_max"):
         ProjectileEnvParams(wind_speed_max=40.0)
-    assert ProjectileEnvParams().reachable_distance >= 60.0
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "message"),
+    [
+        ({"launch_height_min": 0.02}, r"launch_height_min=0.02 is outside the allowed range \[radius=0.05"),
+        ({"target_distance_min": 61.0}, r"target_distance_min=61.0 is outside .* target_distance_max=60.0\]"),
+        ({"speed_min": 35.0}, r"speed_min=35.0 is outside the allowed range \[0, speed_max=30.0\]"),
+        ({"launch_height_max": 0.5}, r"launch_height_max=0.5 is outside .*launch_height_min=1.0"),
+    ],
+)
+def test_inconsistent_ranges_raise_value_error_naming_them(kwargs: dict, message: str) -> None:
+    with pytest.raises(ValueError, match=message):
+        gym.make("vegym/Projectile-v0", **kwargs)
 
 
 def test_starting_states_fill_their_documented_ranges_with_independent_draws(

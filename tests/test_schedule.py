@@ -99,3 +99,14 @@ def test_changes_come_when_due_and_each_episode_holds_the_demand_of_its_number_a
             state["next_change"], reference_change_steps(task.schedule, state["key"], index, state["last_change"])
         )
     assert changed > 300
+
+
+def test_a_schedule_holds_its_demand_through_final_hold_rounded_up_to_whole_steps() -> None:
+    """final_hold = 1 s at dt = 0.7 s covers the last two steps (1.4 s): changes stop after step 98 of 100."""
+    assert ChangeSchedule.planned(5.0, 10.0, 0.7, 100, 1.0, stream=3).last_step == 98
+    assert ChangeSchedule.planned(5.0, 10.0, 0.5, 100, 1.0, stream=3).last_step == 98
+
+
+def test_a_change_interval_shorter_than_a_step_is_refused() -> None:
+    with pytest.raises(ValueError, match=r"change_interval_min=5.0 is outside the allowed range \[dt=10.0"):
+        ChangeSchedule.planned(5.0, 20.0, 10.0, 100, 0.0, stream=3)
