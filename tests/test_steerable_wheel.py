@@ -223,20 +223,67 @@ def test_rendered_frame_shows_the_arena_and_changes_as_the_wheel_rolls() -> None
     assert {canvas.BLACK, canvas.GREEN} <= colours_near(*state["position"][0])
 
 
-@pytest.mark.parametrize("side", [1.0, -1.0], ids=["plus_z", "minus_z"])
-def test_leaving_the_arena_across_z_ends_the_episode_with_the_exit_cost(side: float) -> None:
-    """Episode End: the wheel leaves when ``max(|x|, |z|) > arena_size / 2``, across z as across x."""
+@pytest.mark.parametrize(
+    ("heading", "axis", "side"),
+    [(np.pi / 2, 0, 1.0), (-np.pi / 2, 0, -1.0), (0.0, 1, 1.0), (np.pi, 1, -1.0)],
+    ids=["plus_x", "minus_x", "plus_z", "minus_z"],
+)
+def test_leaving_the_arena_across_any_side_ends_the_episode_with_the_exit_cost(
+    heading: float, axis: int, side: float
+) -> None:
+    """Episode End: the wheel leaves when ``max(|x|, |z|) > arena_size / 2``, across each of the four sides."""
     p = SteerableWheelParams(n_waypoints=1)
     task = SteerableWheelTask(p)
-    heading = 0.0 if side > 0 else np.pi  # forward is (sin psi, 0, cos psi): +z or -z
-    start = (0.0, side * (p.half_size - 0.05))
-    state = single_state(task, start, heading, [(5.0, 0.0)], speed=1.0)
+    start = np.zeros(2)
+    start[axis] = side * (p.half_size - 0.05)  # forward is (sin psi, 0, cos psi)
+    state = single_state(task, tuple(start), heading, [(0.0, 0.0) if axis else (0.0, 5.0)], speed=1.0)
     after, out, info = task.transition(state, np.zeros((1, 2)))
-    x, z = after["position"][0]
-    assert abs(x) < 1e-12 and side * z > p.half_size  # outside across z only
+    assert abs(after["position"][0, 1 - axis]) < 1e-12 and side * after["position"][0, axis] > p.half_size
     assert out["terminated"][0] and not info["is_success"][0]
     assert info["reward_terms"]["exit"][0] == -p.exit_penalty
     assert out["reward"][0] == pytest.approx(sum(t[0] for t in info["reward_terms"].values()), rel=1e-12)
+
+
+def test_passing_the_last_waypoint_on_the_step_that_leaves_the_arena_is_a_success_without_the_exit_cost() -> None:
+    p = SteerableWheelParams(n_waypoints=1)
+    task = SteerableWheelTask(p)
+    state = single_state(task, (p.half_size - 0.05, 0.0), np.pi / 2, [(p.half_size - 0.02, 0.0)], speed=1.0)
+    after, out, info = task.transition(state, np.zeros((1, 2)))
+    assert after["position"][0, 0] > p.half_size
+    assert out["terminated"][0] and info["is_success"][0] and info["reward_terms"]["exit"][0] == 0.0
+
+
+def test_a_waypoint_is_passed_only_within_capture_radius_of_the_step_s_own_path() -> None:
+    """The step's path is the segment from its start to its end: a waypoint 5 m ahead of a 0.2 m step is not
+    passed, and with capture_radius = 0 waypoints exactly on the path are passed, several in one step, up to the
+    last (index past the end: success)."""
+    p = SteerableWheelParams(n_waypoints=3, dt=0.5, max_acceleration=100.0, capture_radius=0.0)
+    task = SteerableWheelTask(p)  # heading +z at 2 m/s for 0.5 s: from z = 0 to z = 1 exactly
+    ahead = single_state(task, (0.0, 0.0), 0.0, [(0.0, 5.0), (0.0, 6.0), (0.0, 7.0)], speed=2.0)
+    assert task.transition(ahead, np.array([[1.0, 0.0]]))[2]["waypoint_index"][0] == 0
+    on_path = single_state(task, (0.0, 0.0), 0.0, [(0.0, 0.5), (0.0, 0.9), (0.0, 7.0)], speed=2.0)
+    after, out, info = task.transition(on_path, np.array([[1.0, 0.0]]))
+    np.testing.assert_array_equal(after["position"], [[0.0, 1.0]])
+    assert info["waypoint_index"][0] == 2 and not out["terminated"][0]
+    last_two = single_state(task, (0.0, 0.0), 0.0, [(9.0, 9.0), (0.0, 0.5), (0.0, 0.9)], speed=2.0)
+    last_two["index"][0] = 1
+    _, out, info = task.transition(last_two, np.array([[1.0, 0.0]]))
+    assert info["waypoint_index"][0] == 3 and out["terminated"][0] and info["is_success"][0]
+    assert info["reward_terms"]["waypoint"][0] == 2 * p.waypoint_bonus
+
+
+def test_a_waypoint_beyond_the_arena_diagonal_is_observed_at_distance_one_and_one_underfoot_straight_ahead() -> None:
+    """The terminal observation after an exit can lie farther than the diagonal from a waypoint: its distance
+    stays 1; a waypoint at the wheel's centre has bearing sine 0 and cosine 1."""
+    p = SteerableWheelParams(n_waypoints=2, waypoint_margin=0.0)
+    task = SteerableWheelTask(p)
+    assert p.diagonal == pytest.approx(np.sqrt(2.0) * 20.0, rel=1e-15)
+    outside = single_state(task, (-p.half_size - 0.5, -p.half_size - 0.5), 0.3, [(p.half_size, p.half_size)] * 2)
+    obs = task.observation(outside)[0]
+    assert obs[0] == 1.0 and task.observation_space.contains(obs)
+    underfoot = task.observation(single_state(task, (1.0, 2.0), 0.3, [(1.0, 2.0), (4.0, 6.0)]))[0]
+    np.testing.assert_array_equal(underfoot[:3], [0.0, 0.0, 1.0])
+    np.testing.assert_allclose(underfoot[3], 5.0 / p.diagonal, rtol=1e-6)
 
 
 def test_progress_and_effort_terms_follow_the_documented_formulas() -> None:

@@ -385,8 +385,9 @@ class SteerableWheelEnv(VegymEnv[SteerableWheelParams]):
 
     ## Observation Space
     ``Box(low, 1, (8,), float32)`` in the wheel's own frame: for the current waypoint and the next one (the last
-    one repeated once there is no next), the distance over the arena diagonal in [0, 1] and the sine and cosine
-    of its bearing relative to the heading (positive sine: to the left); then the speed over ``max_speed`` in
+    one repeated once there is no next), the distance over the arena diagonal in [0, 1] (1 beyond it, as after
+    leaving the arena) and the sine and cosine of its bearing relative to the heading (positive sine: to the left;
+    sine 0 and cosine 1 for a waypoint at the wheel's centre); then the speed over ``max_speed`` in
     [0, 1] and the fraction of waypoints passed in [0, 1]. ``low`` is 0 for distances, speed and progress, -1
     for the sines and cosines.
 
