@@ -225,6 +225,59 @@ def test_info_is_the_step_just_taken_in_si_units() -> None:
     assert reward == pytest.approx(sum(info["reward_terms"].values()))
 
 
+def test_on_a_demand_change_step_the_info_shows_the_demand_its_errors_were_scored_against() -> None:
+    """A change hands out its new demand at the end of the step (the next observation shows it); that step's
+    info reports the demand in force during it, which its errors and rewards used."""
+    env = gym.make(ENV_ID)
+    env.reset(seed=4)
+    changes = 0
+    for _ in range(300):
+        demand_before = env.unwrapped.state["demand"][0].copy()
+        *_, truncated, info = env.step(env.action_space.sample())
+        np.testing.assert_array_equal(info["demand"], demand_before)
+        changes += not np.array_equal(env.unwrapped.state["demand"][0], demand_before)
+        expected = [demand_before[0] - info["position"][1], demand_before[1] - info["speed"]]
+        expected.append(aircraft.wrap(demand_before[2] - info["heading"]))
+        np.testing.assert_allclose(info["errors"], expected, rtol=0, atol=1e-9)
+        if truncated:
+            break
+    assert changes >= 2
+
+
+@pytest.mark.parametrize(
+    ("env_id", "kwargs", "climb_action"),
+    [(GUSTY_ID, {}, 1.0), (GUSTY_ID, {}, -1.0), (ENV_ID, {"max_descent_rate": 30.0}, -1.0)],
+)
+def test_the_observed_climb_command_is_the_commanded_rate_over_the_vertical_speed_scale(
+    env_id: str, kwargs: dict, climb_action: float
+) -> None:
+    env = gym.make(env_id, **kwargs)
+    env.reset(seed=0)
+    p = env.unwrapped.params
+    obs = env.step(np.array([0.0, climb_action, 0.0], np.float32))[0]
+    rate = p.max_climb_rate if climb_action > 0 else -p.max_descent_rate
+    scale = max(p.max_climb_rate, p.max_descent_rate) + p.draft_max + p.gust_amplitude
+    assert obs[6] == pytest.approx(rate / scale, rel=1e-6) and env.observation_space.contains(obs)
+
+
+def test_the_observed_time_since_the_last_change_counts_seconds_over_change_interval_max() -> None:
+    env = gym.make(ENV_ID, dt=2.0)  # the first change comes after change_interval_min = 45 s at the earliest
+    env.reset(seed=0)
+    for step in range(1, 21):
+        obs = env.step(np.zeros(3, np.float32))[0]
+        assert obs[7] == pytest.approx(2.0 * step / 120.0, rel=1e-6)
+
+
+@pytest.mark.parametrize("axis", [0, 1, 2])
+def test_each_action_axis_costs_its_share_of_the_effort(axis: int) -> None:
+    env = gym.make(ENV_ID)
+    env.reset(seed=0)
+    action = np.zeros(3, np.float32)
+    action[axis] = -1.0
+    info = env.step(action)[4]
+    assert info["reward_terms"]["effort"] == pytest.approx(-env.unwrapped.params.effort_weight / 3.0, rel=1e-12)
+
+
 def test_extreme_actions_keep_the_aircraft_in_its_envelope_and_observations_in_bounds() -> None:
     env = gym.make_vec(
         GUSTY_ID,
