@@ -67,20 +67,41 @@ def test_info_is_the_exact_shot_in_si_units() -> None:
 
 
 def test_hit_bonus_is_full_at_the_centre_and_falls_to_zero_at_the_rim() -> None:
-    env = gym.make_vec(ENV_ID, num_envs=200, vectorization_mode="vector_entry_point")
+    env = gym.make_vec(ENV_ID, num_envs=200, vectorization_mode="vector_entry_point", hit_bonus=3.0)
     controller = controller_for(env)
     obs, _ = env.reset(seed=2)
     action = controller.predict(obs)[0]
     _, _, _, _, info = env.step(action)
-    np.testing.assert_allclose(info["reward_terms"]["hit"], 1.0, atol=1e-6)
+    np.testing.assert_allclose(info["reward_terms"]["hit"], 3.0, atol=1e-5)
     action[:, 2] -= 0.1  # 1.25 m/s slower: short of the target, by up to a few metres
     obs, _ = env.reset(seed=2)
     _, _, _, _, info = env.step(action)
     miss, hit_term = info["miss_distance"], info["reward_terms"]["hit"]
     inside = miss <= 2.0
     assert inside.any() and (~inside).any()
-    np.testing.assert_allclose(hit_term[inside], 1.0 - (miss[inside] / 2.0) ** 2, rtol=1e-12)
+    np.testing.assert_allclose(hit_term[inside], 3.0 * (1.0 - (miss[inside] / 2.0) ** 2), rtol=1e-12)
     assert np.all(hit_term[~inside] == 0.0) and np.all(info["is_success"] == inside)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "height_scale", "wind_scale"),
+    [({}, 20.0, 5.0), ({"launch_height_min": 0.5, "launch_height_max": 0.8}, 1.0, 5.0), ({"wind_speed_max": 0}, 20, 1)],
+    ids=["defaults", "low launches: height over 1 m", "no wind"],
+)
+def test_observation_is_the_target_frame_over_its_documented_scales(
+    kwargs: dict, height_scale: float, wind_scale: float
+) -> None:
+    """Observation Space: distance over target_distance_max, launch height over max(launch_height_max, 1 m), the
+    wind along and across the bearing over wind_speed_max (1 m/s without wind)."""
+    env = gym.make(ENV_ID, **kwargs)
+    obs, _ = env.reset(seed=5)
+    state = env.unwrapped.state
+    launch, target, wind, bearing = (state[k][0] for k in ("launch_position", "target", "wind", "bearing"))
+    along = wind[0] * np.cos(bearing) + wind[2] * np.sin(bearing)
+    across = -wind[0] * np.sin(bearing) + wind[2] * np.cos(bearing)
+    expected = [np.hypot(*(target - launch)[[0, 2]]) / 60.0, launch[1] / height_scale, along / wind_scale]
+    np.testing.assert_allclose(obs, [*expected, across / wind_scale], rtol=1e-6, atol=1e-7)
+    assert env.observation_space.contains(obs)
 
 
 def test_targets_beyond_the_reachable_envelope_are_rejected() -> None:
