@@ -10,6 +10,7 @@ import pytest
 
 import vegym  # noqa: F401
 from agents.analytic import BouncingBallMyopic, BouncingBallOracle, BouncingBallPlanner, controller_for
+from vegym import rng
 from vegym.envs.bouncing_ball import BouncingBallParams, optimal_apexes
 
 ENV_ID = "vegym/BouncingBall-v0"
@@ -242,6 +243,34 @@ def test_controllers_predict_batches_like_single_observations(controller_cls: ty
     assert batch.shape == (16, 1) and batch.dtype == np.float32
     for i in range(16):
         np.testing.assert_array_equal(controller.predict(obs[i])[0], batch[i])
+
+
+def test_a_rebound_slower_than_rest_speed_leaves_the_ball_at_rest_on_the_ground() -> None:
+    """Episode End: a rebound below ``rest_speed`` (here 1 m/s) ends the episode with the ball at rest, its apex
+    h = r; a faster one flies to ``r + (e v)^2 / 2g``."""
+    env = gym.make(ENV_ID, rest_speed=1.0)
+    impact = np.sqrt(2 * 9.81 * 2.9)
+    for rebound, at_rest in ((0.75, True), (1.25, False)):
+        env.reset(seed=0)
+        _, _, terminated, _, info = env.step(np.array([2 * rebound / impact - 1], dtype=np.float32))
+        assert terminated == at_rest
+        flight = 0.0 if at_rest else (info["restitution"] * impact) ** 2 / (2 * 9.81)
+        assert info["apex_height"] == pytest.approx(0.1 + flight, rel=1e-12)
+        assert (info["reward_terms"]["rest"] < 0.0) == at_rest  # the skipped bounces are charged
+
+
+@pytest.mark.parametrize(("ratio_min", "ratio_max"), [(0.3, 0.6), (1.5, 2.0)], ids=["falling", "rising"])
+def test_the_targets_random_walk_stays_inside_target_min_and_target_max(ratio_min: float, ratio_max: float) -> None:
+    env = gym.make(ENV_ID, target_ratio_min=ratio_min, target_ratio_max=ratio_max)
+    p = env.unwrapped.params
+    targets = env.unwrapped.task.targets(rng.seed_keys(np.arange(200)), 10)
+    assert p.target_min <= targets.min() and targets.max() <= p.target_max
+    assert (targets == (p.target_min if ratio_max < 1 else p.target_max)).mean() > 0.5  # the walk is held there
+
+
+def test_the_range_checks_admit_their_closed_ends() -> None:
+    BouncingBallParams(target_max=3.0, drop_height=3.0)
+    BouncingBallParams(target_ratio_min=1.0, target_ratio_max=1.0)
 
 
 @pytest.mark.parametrize(
