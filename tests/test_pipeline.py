@@ -394,6 +394,35 @@ def test_adapter_acts_on_the_whole_native_vector_env_refuses_some_indices_and_gi
     with pytest.raises(ValueError, match=r"env_method\('reset'\) acts on the whole vector env"):
         adapter.env_method("reset", indices=[0, 2])
     assert adapter.venv.note == "all"
+    assert adapter.env_is_wrapped(gym.Wrapper) == [False] * 3 and adapter.env_is_wrapped(gym.Wrapper, [2]) == [False]
+    adapter.set_options([{"a": 1}, {"b": 2}, {"a": 1}])
+    with pytest.raises(ValueError, match="a native vector env takes one options dict for all sub-envs"):
+        adapter.reset()
+
+
+class CountResets(gym.Wrapper):
+    """Reports in each reset's info how many resets its env has had."""
+
+    def __init__(self, env: gym.Env) -> None:
+        super().__init__(env)
+        self.resets = 0
+
+    def reset(self, **kwargs: Any) -> tuple[Any, dict]:
+        obs, info = self.env.reset(**kwargs)
+        self.resets += 1
+        return obs, {**info, "resets": self.resets}
+
+
+def test_adapter_s_reset_infos_are_those_of_the_autoresets_as_dummy_vec_env_s() -> None:
+    def make() -> gym.Env:
+        return CountResets(gym.make("vegym/Projectile-v0"))  # one-step episodes: every step autoresets
+
+    adapter, dummy = VectorEnvAdapter(SyncVectorEnv([make, make])), DummyVecEnv([make, make])
+    for venv in (adapter, dummy):
+        venv.reset()
+        for _ in range(2):
+            venv.step(np.zeros((2, 3), np.float32))
+    assert [i["resets"] for i in adapter.reset_infos] == [i["resets"] for i in dummy.reset_infos] == [3, 3]
 
 
 def test_adapter_renders_the_frames_of_a_sync_vector_env() -> None:
