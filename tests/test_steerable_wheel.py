@@ -333,3 +333,14 @@ def test_pure_pursuit_commands_the_fastest_speed_its_curvature_allows_and_the_ya
     yaw_rate = min(max(curvature * applied, -params.max_yaw_rate), params.max_yaw_rate)
     assert action[0] == pytest.approx(2.0 * command / params.max_speed - 1.0, abs=1e-6)
     assert action[1] == pytest.approx(yaw_rate / params.max_yaw_rate, abs=1e-6)
+
+
+def test_pure_pursuit_turns_left_toward_a_waypoint_dead_behind() -> None:
+    """A waypoint straight behind (sin eta = 0, cos eta = -1) gets the full left turn of one just left of it."""
+    params = SteerableWheelParams()
+    obs = np.zeros((2, 8), np.float32)
+    obs[:, 0], obs[:, 2], obs[:, 6] = 0.3, -1.0, 0.5
+    obs[1, 1] = 1e-6  # just left of behind
+    action = SteerableWheelPurePursuit(params).predict(obs)[0]
+    assert action[0, 1] > 0.0
+    np.testing.assert_array_equal(action[0], action[1])
