@@ -803,6 +803,23 @@ def test_a_retraining_that_does_not_finish_leaves_the_agent_as_it_was(
     assert (tmp_path / "Projectile-v0" / "ppo.retraining" / "seed_0" / "model.zip").read_text() == "a partial run"
 
 
+def test_a_retrained_agent_keeps_its_models_and_configs_without_the_training_by_products(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    def train_seeds(configs: dict, out: Path, **kwargs: object) -> list[SeedOutcome]:
+        for seed in configs:
+            for name in ("checkpoints", "eval", "tb"):
+                (out / f"seed_{seed}" / name).mkdir(parents=True)
+            (out / f"seed_{seed}" / "model.zip").write_text("trained")
+        return [SeedOutcome(s, TrainResult(out / f"seed_{s}" / "model.zip", 64, False, 1.0)) for s in configs]
+
+    monkeypatch.setattr(compare, "train_seeds", train_seeds)
+    compare.retrain("vegym/Projectile-v0", tmp_path, ["ppo"], seeds=[0, 1], log=lambda line: None)
+    for seed in (0, 1):
+        run = tmp_path / "Projectile-v0" / "ppo" / f"seed_{seed}"
+        assert sorted(path.name for path in run.iterdir()) == ["config.yml", "model.zip"]
+
+
 def test_a_config_episode_length_is_the_time_limit_of_training_and_evaluation() -> None:
     """env_kwargs that set the episode length a task plans for (Aircraft's episode_steps) set the time limit too:
     the registered one (300 steps) would cut training and evaluation episodes short without a word."""
