@@ -341,3 +341,24 @@ def test_simulated_time_is_the_drop_plus_every_flight_of_2_rebound_over_g() -> N
         time += 0.0 if terminated else 2.0 * rebound / g
         assert env.unwrapped.state["time"][0] == pytest.approx(time, rel=1e-12)
     assert terminated and time > np.sqrt(2.0 * (drop_height - radius) / g) + 1.0
+
+
+@pytest.mark.filterwarnings("ignore:.*plans episodes of episode_bounces")  # the time limit past the plan
+def test_a_ball_resting_past_its_planned_bounces_is_judged_over_every_bounce_it_made() -> None:
+    """With a time limit past ``episode_bounces`` (2 here), a ball that rests on its 4th bounce is judged by the
+    mean apex error of its 4 bounces, not of the 2 planned ones."""
+
+    def last_info(success_error: float) -> dict:
+        env = gym.make(ENV_ID, episode_bounces=2, max_episode_steps=10, success_error=success_error)
+        controller = BouncingBallMyopic(env.unwrapped.params)
+        obs, _ = env.reset(seed=1)
+        for _ in range(3):
+            obs, _, terminated, _, info = env.step(controller.predict(obs)[0])
+            assert not terminated
+        _, _, terminated, _, info = env.step(np.array([-1.0], np.float32))
+        assert terminated
+        return info
+
+    rest = last_info(0.05)
+    mean_error = abs(rest["apex_height"] - rest["target_height"]) / 2.9 / 4  # the myopic bounces hit their targets
+    assert not last_info(0.9 * mean_error)["is_success"] and last_info(1.5 * mean_error)["is_success"]
