@@ -51,8 +51,9 @@ def _metrics_by_formula(env_id: str, episodes: list[evaluation.Episode]) -> dict
 
     metrics = {"episode_length": mean(lambda ep: len(ep.rewards))}
     if env_id == "vegym/BouncingBall-v0":
-        apex_errors = [[abs(i["apex_height"] - i["target_height"]) for i in ep.infos] for ep in episodes]
-        metrics["apex_error_m"] = float(np.mean([np.mean(errors) for errors in apex_errors]))
+        metrics["apex_error_m"] = mean(
+            lambda ep: np.mean([abs(i["apex_height"] - i["target_height"]) for i in ep.infos])
+        )
     elif env_id == "vegym/Projectile-v0":
         metrics["miss_distance_m"] = mean(lambda ep: ep.infos[-1]["miss_distance"])
     elif env_id == "vegym/SteerableWheel-v0":

@@ -15,9 +15,15 @@ def test_constant_scores_have_a_point_interval() -> None:
     assert summary.mean_ci95 == pytest.approx((0.7, 0.7)) and summary.iqm_ci95 == pytest.approx((0.7, 0.7))
 
 
-def test_mean_and_iqm_are_the_closed_forms_and_the_intervals_contain_them() -> None:
+def outlier_scores() -> np.ndarray:
+    """Three seeds of 20 episodes around 1.0, three of them outliers at -5 (which move the mean, not the IQM)."""
     scores = np.random.default_rng(0).normal(1.0, 0.2, (3, 20))
-    scores[0, :3] = -5.0  # outliers move the mean, not the interquartile mean
+    scores[0, :3] = -5.0
+    return scores
+
+
+def test_mean_and_iqm_are_the_closed_forms_and_the_intervals_contain_them() -> None:
+    scores = outlier_scores()
     summary = summarize(scores)
     assert summary.mean == pytest.approx(scores.mean(), abs=1e-12)
     assert summary.iqm == pytest.approx(stats.trim_mean(scores.ravel(), 0.25), abs=1e-12)
@@ -28,18 +34,14 @@ def test_mean_and_iqm_are_the_closed_forms_and_the_intervals_contain_them() -> N
 
 
 def test_the_iqm_interval_is_the_iqm_s_and_ignores_outliers_that_move_the_mean_s() -> None:
-    scores = np.random.default_rng(0).normal(1.0, 0.2, (3, 20))
-    scores[0, :3] = -5.0
-    summary = summarize(scores)
+    summary = summarize(outlier_scores())
     assert summary.mean_ci95[0] < 0.0 < 0.8 < summary.iqm_ci95[0]
 
 
 def test_the_seeded_intervals_of_a_fixed_matrix_do_not_change() -> None:
     """The README publishes these intervals: their resampling (seed, streams, replicate count, the IQM's 25% trim)
     must not change unnoticed."""
-    scores = np.random.default_rng(0).normal(1.0, 0.2, (3, 20))
-    scores[0, :3] = -5.0
-    summary = summarize(scores)
+    summary = summarize(outlier_scores())
     assert summary.mean_ci95 == pytest.approx((-0.2156599, 1.0907305), abs=1e-7)
     assert summary.iqm_ci95 == pytest.approx((0.8822851, 1.1081839), abs=1e-7)
 
