@@ -206,10 +206,9 @@ class SteerableWheelPurePursuit(AnalyticController):
     a point ``L_d = clip(D, min_lookahead, max_lookahead)`` ahead along the bearing is ``kappa = 2 sin(eta) / L_d``;
     a waypoint behind (``cos eta < 0``) gets the full ``2 sign(eta) / L_d`` (a left turn for one dead behind).
     Capping L_d turns the wheel onto the bearing early instead of along one wide arc that can leave the arena.
-    The speed command is the fastest at
-    which that curvature is within the yaw-rate limit, ``min(max_speed, max_yaw_rate / |kappa|)``, and the yaw
-    rate ``kappa v`` uses the speed the step will apply (the observed speed moved toward the command by at most
-    ``max_acceleration dt``), clipped to ``max_yaw_rate``.
+    The speed command is the fastest at which that curvature is within the yaw-rate limit, ``min(max_speed,
+    max_yaw_rate / |kappa|)``, and the yaw rate ``kappa v`` uses the speed the step will apply (the observed
+    speed moved toward the command by at most ``max_acceleration dt``), clipped to ``max_yaw_rate``.
     """
 
     task_cls = SteerableWheelTask
