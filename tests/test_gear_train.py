@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -178,3 +180,41 @@ def test_the_proportional_controller_s_default_gain_halves_the_error_per_step() 
     expected = np.clip(demand, -p.max_speed, p.max_speed) / p.max_speed
     assert np.abs(expected[:4]).max() < 0.9 and expected[4] == 1.0  # the small errors unsaturated
     np.testing.assert_allclose(controller.act(obs)[:, 0], expected, rtol=1e-6)
+
+
+def test_reward_terms_are_the_documented_tracking_and_effort_costs_and_the_output_turns_at_the_ratio() -> None:
+    """Rewards: ``tracking = -tracking_weight * dt * |error| / pi`` and ``effort = -effort_weight * dt * a^2``;
+    the output gear turns at ``ratio`` times the input speed."""
+    env = gym.make(ENV_ID, tracking_weight=2.0, effort_weight=0.03)
+    env.reset(seed=0)
+    p = env.unwrapped.params
+    for a in (0.5, 1.0, 0.2, -0.3):
+        info = env.step(np.array([a], np.float32))[4]
+        assert info["reward_terms"]["tracking"] == pytest.approx(-2.0 * p.dt * abs(info["error"]) / np.pi, rel=1e-12)
+        assert info["reward_terms"]["effort"] == pytest.approx(-0.03 * p.dt * float(np.float32(a)) ** 2, rel=1e-12)
+        assert info["output_speed"] == pytest.approx(info["ratio"] * info["input_speed"], rel=1e-12)
+        assert info["output_speed"] != 0.0
+
+
+def test_trains_fill_their_documented_ranges_with_independent_draws(assert_independent_draws_fill: Callable) -> None:
+    p = GearTrainParams()
+    state = GearTrainTask(p).initial_state(vegym.rng.seed_keys(np.arange(4000)))
+    gears = state["gears"]
+    assert set(np.unique(gears)) == set(range(p.gears_min, p.gears_max + 1))
+    assert_independent_draws_fill(
+        {
+            "gears": (gears.astype(float), p.gears_min, p.gears_max),
+            "first radius": (state["radii"][:, 0], p.radius_min, p.radius_max),
+            "last radius": (state["radii"][:, -1], p.radius_min, p.radius_max),
+            "first angle": (state["angles"][:, 0], -np.pi, np.pi),
+            "last angle": (state["angles"][:, -1], -np.pi, np.pi),
+        }
+    )
+
+
+def test_the_range_checks_admit_their_closed_ends_and_the_target_interval_rounds_to_steps() -> None:
+    fixed = gym.make(ENV_ID, gears_min=3, gears_max=3)
+    fixed.reset(seed=0)
+    assert fixed.step(np.zeros(1, np.float32))[4]["gears"] == 3
+    GearTrainParams(target_interval=0.05, dt=0.05)
+    assert GearTrainParams(target_interval=0.3, dt=0.1, max_speed=5.0).interval_steps == 3  # 2.9999999999999996
