@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import gymnasium as gym
 import numpy as np
 import pytest
@@ -174,3 +176,30 @@ def test_is_success_is_b_resting_within_the_target_radius_of_the_target() -> Non
         np.testing.assert_allclose(reward, -miss / p.target_distance_max + np.where(hit, p.hit_bonus, 0.0))
         assert 0.05 < hit.mean() < 0.95
         assert np.count_nonzero((miss > p.target_radius) & (miss <= 2.0 * p.target_radius)) > 10
+
+
+def test_setups_fill_their_documented_ranges_with_independent_draws(assert_independent_draws_fill: Callable) -> None:
+    """Starting State: A at the origin, B at a uniform distance and bearing from it, the target at a uniform
+    distance from B and a uniform bearing within bearing_max off the line A-B."""
+    p = BilliardsParams()
+    state = BilliardsTask(p).initial_state(vegym.rng.seed_keys(np.arange(4000)))
+    b, leave = state["ball_b"], state["target"] - state["ball_b"]
+    assert (state["ball_a"] == 0.0).all()
+    line = np.arctan2(b[:, 1], b[:, 0])
+    assert_independent_draws_fill(
+        {
+            "ball distance": (np.hypot(b[:, 0], b[:, 1]), p.ball_distance_min, p.ball_distance_max),
+            "line": (line, -np.pi, np.pi),
+            "target distance": (np.hypot(leave[:, 0], leave[:, 1]), p.target_distance_min, p.target_distance_max),
+            "off the line": (np.angle(np.exp(1j * (np.arctan2(leave[:, 1], leave[:, 0]) - line))), -1.0, 1.0),
+        }
+    )
+    assert p.bearing_max == 1.0  # "off the line"'s range above
+
+
+def test_the_observation_space_is_the_documented_box_and_equal_range_ends_are_valid() -> None:
+    space = gym.make(ENV_ID).observation_space
+    np.testing.assert_array_equal(space.low, [0, 0, -1, 0])
+    np.testing.assert_array_equal(space.high, [1, 1, 1, 1])
+    BilliardsParams(ball_distance_min=0.8, ball_distance_max=0.8)
+    BilliardsParams(target_distance_min=0.6, target_distance_max=0.6)
