@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import gymnasium as gym
 import numpy as np
@@ -10,7 +11,8 @@ import pytest
 
 import vegym  # noqa: F401
 from agents.analytic import PendulumEnergyPumping, controller_for
-from vegym.envs.pendulum_pump import PendulumPumpParams
+from vegym import rng
+from vegym.envs.pendulum_pump import PendulumPumpParams, PendulumPumpTask
 from vegym.physics import pendulum
 
 ENV_ID = "vegym/PendulumPump-v0"
@@ -176,6 +178,7 @@ def test_the_step_writes_the_observation_of_its_state_bit_for_bit_target_changes
         ({"damping": 1e200}, r"dt=0.05 is outside"),  # its square overflows: the stable step is 0, not NaN
         ({"mass": 1e-300}, r"dt=0.05 is outside"),
         ({"target_max": 4.0}, "target_max"),
+        ({"length": 0.03, "dt": 4.0, "change_interval_min": 20.0, "final_hold": 4.0}, r"substeps=5 .* \[122, 1000\]"),
     ],
 )
 def test_bad_parameters_raise_value_error_naming_them(kwargs: dict, name: str) -> None:
@@ -225,3 +228,55 @@ def test_energy_pumping_s_default_gain_is_2_and_its_torque_the_saturated_pumping
     torque = np.clip(2.0 * (mgl * (1.0 - np.cos(tg)) - energy) * om, -p.max_torque, p.max_torque)
     assert np.abs(torque[:4]).max() < 0.9 * p.max_torque and abs(torque[4]) == p.max_torque
     np.testing.assert_allclose(controller.act(obs)[:, 0], torque / p.max_torque, rtol=1e-6, atol=1e-7)
+
+
+def test_starts_fill_their_symmetric_ranges_with_independent_draws(assert_independent_draws_fill: Callable) -> None:
+    p = PendulumPumpParams()
+    state = PendulumPumpTask(p).initial_state(rng.seed_keys(np.arange(4000)))
+    assert_independent_draws_fill(
+        {
+            "angle": (state["theta"], -p.start_angle_max, p.start_angle_max),
+            "rate": (state["omega"], -p.start_rate_max, p.start_rate_max),
+            "target": (state["target"], p.target_min, p.target_max),
+        }
+    )
+
+
+def test_the_observation_space_is_the_documented_box_and_its_rate_clips_at_one() -> None:
+    env = gym.make(ENV_ID)
+    np.testing.assert_array_equal(env.observation_space.low, [-1, -1, -1, 0, -1, -1])
+    np.testing.assert_array_equal(env.observation_space.high, [1, 1, 1, 1, 1, 1])
+    env.reset(seed=0)
+    task, state = env.unwrapped.task, {k: v.copy() for k, v in env.unwrapped.state.items()}
+    state["omega"][0] = 10.0
+    assert task.observation(state)[0, 2] == 1.0
+    state["omega"][0] = -10.0
+    assert task.observation(state)[0, 2] == -1.0
+
+
+def test_a_single_env_changes_its_target_after_the_planned_step_and_equal_target_bounds_fix_it() -> None:
+    env = gym.make(ENV_ID)
+    env.reset(seed=9)
+    state = env.unwrapped.state
+    planned, target = int(state["next_change"][0]), float(state["target"][0])
+    for step in range(1, planned + 1):
+        info = env.step(np.zeros(1, np.float32))[4]
+        assert info["target_amplitude"] == target  # the step's target
+        assert (state["target"][0] != target) == (step == planned), step  # the next step's
+    fixed = gym.make(ENV_ID, target_min=1.0, target_max=1.0)
+    fixed.reset(seed=9)
+    assert all(fixed.step(np.zeros(1, np.float32))[4]["target_amplitude"] == 1.0 for _ in range(planned + 50))
+
+
+def test_is_success_is_the_amplitude_error_within_the_tolerance() -> None:
+    env = gym.make_vec(ENV_ID, num_envs=32, vectorization_mode="vector_entry_point")
+    tolerance = env.unwrapped.params.success_tolerance
+    controller = controller_for(env)
+    obs, _ = env.reset(seed=3)
+    near = 0
+    for _ in range(300):
+        obs, _, _, _, info = env.step(controller.predict(obs)[0])
+        error = np.abs(info["amplitude"] - info["target_amplitude"])
+        np.testing.assert_array_equal(info["is_success"], error <= tolerance)
+        near += np.count_nonzero((error > tolerance) & (error <= 2.0 * tolerance))
+    assert near >= 16
