@@ -238,8 +238,9 @@ def test_observations_are_scaled_near_unit_spread_and_the_velocities_never_clip(
 
 @pytest.mark.parametrize("sign", [-1.0, 1.0], ids=["compression", "extension"])
 def test_a_bump_stop_ends_the_episode_in_compression_as_in_extension(sign: float) -> None:
-    """Episode End: terminated when ``|travel| > travel_limit``, either way, with the documented bump-stop charge."""
-    env = gym.make(ENV_ID)
+    """Episode End: terminated when ``|travel| > travel_limit``, either way, with the documented bump-stop charge,
+    and never a success (here under a comfort bound that any ride meets)."""
+    env = gym.make(ENV_ID, comfort_rms=100.0)
     env.reset(seed=0)
     p: SuspensionParams = env.unwrapped.params
     state = env.unwrapped.state
@@ -286,3 +287,45 @@ def test_the_damper_laws_act_finitely_when_the_damper_has_one_setting(controller
         action, _ = controller.predict(obs)
         assert np.all(np.isfinite(action))
         obs, *_ = env.step(action)
+
+
+@pytest.mark.filterwarnings("ignore:.*plans episodes of episode_steps")  # the time limit past the plan
+def test_a_bump_stop_past_the_planned_episode_costs_the_penalty_alone() -> None:
+    """The bump-stop charge covers the planned steps left, none once the episode runs past them."""
+    env = gym.make(ENV_ID, episode_steps=10, max_episode_steps=30)
+    env.reset(seed=0)
+    p: SuspensionParams = env.unwrapped.params
+    for _ in range(15):
+        env.step(np.zeros(1, np.float32))
+    state = env.unwrapped.state
+    state["height"][0] = state["base"][0] + p.static_length + 2.5 * p.travel_limit
+    _, _, terminated, _, info = env.step(np.zeros(1, np.float32))
+    assert terminated and info["reward_terms"]["bump_stop"] == -p.bottom_out_penalty
+
+
+def test_comfort_costs_the_squared_acceleration_over_its_scale_up_to_one_per_second() -> None:
+    env = gym.make(ENV_ID)
+    env.reset(seed=0)
+    p: SuspensionParams = env.unwrapped.params
+    state = env.unwrapped.state
+    state["velocity"][0] = state["base_velocity"][0] + 0.5  # the stiff damper: about -6.7 m/s^2, over accel_scale
+    info = env.step(np.ones(1, np.float32))[4]
+    assert abs(info["body_acceleration"]) > p.accel_scale and info["reward_terms"]["comfort"] == -p.dt
+    env.reset(seed=0)
+    state["velocity"][0] = state["base_velocity"][0] + 0.1  # about -1.3 m/s^2
+    info = env.step(np.ones(1, np.float32))[4]
+    expected = -p.dt * (info["body_acceleration"] / p.accel_scale) ** 2
+    assert 0.0 < -expected < p.dt and info["reward_terms"]["comfort"] == pytest.approx(expected, rel=1e-12)
+
+
+def test_a_ride_starts_at_rest_on_its_spring_moving_with_the_terrain_under_it() -> None:
+    """Starting State: the body at the static length over the ground and both at the ground's vertical speed,
+    ``slope(0) * speed``."""
+    env = gym.make(ENV_ID)
+    env.reset(seed=2)
+    p: SuspensionParams = env.unwrapped.params
+    state = env.unwrapped.state
+    ground, slope = suspension.terrain(np.zeros(1), state["amplitude"], state["wavenumber"], state["phase"])
+    assert state["height"][0] - state["base"][0] == pytest.approx(p.static_length, rel=1e-12)
+    assert slope[0] != 0.0 and state["offset"][0] == pytest.approx(ground[0], rel=1e-12)
+    assert state["velocity"][0] == state["base_velocity"][0] == pytest.approx(slope[0] * p.speed, rel=1e-12)
