@@ -312,6 +312,7 @@ def test_comfort_costs_the_squared_acceleration_over_its_scale_up_to_one_per_sec
     info = env.step(np.ones(1, np.float32))[4]
     assert abs(info["body_acceleration"]) > p.accel_scale and info["reward_terms"]["comfort"] == -p.dt
     env.reset(seed=0)
+    state = env.unwrapped.state
     state["velocity"][0] = state["base_velocity"][0] + 0.1  # about -1.3 m/s^2
     info = env.step(np.ones(1, np.float32))[4]
     expected = -p.dt * (info["body_acceleration"] / p.accel_scale) ** 2
