@@ -311,8 +311,9 @@ NEVER = 2**62
 """An ``eval_freq``/``save_freq`` (env steps) that no training reaches."""
 
 
-def objective(trial: optuna.Trial, settings: SweepSettings, score: Scorer) -> float:
-    """Train one trial's config in a scratch directory and return its final mean normalized score."""
+def objective(trial: optuna.Trial, settings: SweepSettings, score: Scorer, stop: Any = None) -> float:
+    """Train one trial's config in a scratch directory and return its final mean normalized score; setting the
+    event ``stop`` stops the training as Ctrl-C does."""
     config = trial_config(trial, settings)
     trial.set_user_attr("config", {k: v for k, v in config.to_entry().items() if k not in ("env_id", "algo")})
     pruning = ReportAndPrune(trial, score, config.n_timesteps, settings.reports)
@@ -321,7 +322,7 @@ def objective(trial: optuna.Trial, settings: SweepSettings, score: Scorer) -> fl
     scratch_config = with_overrides(config, {"eval_freq": NEVER, "save_freq": NEVER}, f"trial {trial.number}")
     with tempfile.TemporaryDirectory(prefix="vegym-trial-") as scratch:
         try:
-            result = train(scratch_config, Path(scratch) / "run", progress_bar=False, callbacks=[pruning])
+            result = train(scratch_config, Path(scratch) / "run", progress_bar=False, callbacks=[pruning], stop=stop)
             if result.interrupted:
                 raise KeyboardInterrupt
             if pruning.pruned:
@@ -383,10 +384,14 @@ def fail_orphaned_trials(study: optuna.Study) -> None:
             retry(study, storage.get_trial(trial._trial_id))
 
 
-def run_worker(settings: SweepSettings, name: str = "worker", log: Callable[[str], None] = print) -> int:
+def run_worker(
+    settings: SweepSettings, name: str = "worker", log: Callable[[str], None] = print, stop: Any = None
+) -> int:
     """Run trials until the study holds ``settings.trials`` finished ones; return how many this worker ran.
 
     RuntimeError after three failed trials in a row (a config that cannot train should not loop forever).
+    Setting the event ``stop`` (the ``--workers`` parent's) stops it as Ctrl-C does: its training at the next env
+    step, the worker before its next trial (KeyboardInterrupt).
     """
     study = load_study(settings)
     base = load_config(CONFIG_DIR / f"{settings.algo}.yml", settings.env_id, settings.algo)
@@ -399,7 +404,7 @@ def run_worker(settings: SweepSettings, name: str = "worker", log: Callable[[str
         trial.set_user_attr(STARTED, trial.number)
         lock.release()  # the trial exists now, marked: other workers count it and may go on
         log(f"{name}: trial {trial.number} started")
-        return objective(trial, settings, score)
+        return objective(trial, settings, score, stop)
 
     def report(study: optuna.Study, trial: optuna.trial.FrozenTrial) -> None:
         nonlocal failures
@@ -409,6 +414,8 @@ def run_worker(settings: SweepSettings, name: str = "worker", log: Callable[[str
 
     try:
         while True:
+            if stop is not None and stop.is_set():
+                raise KeyboardInterrupt
             lock.acquire()
             try:
                 with warnings.catch_warnings():
@@ -439,13 +446,14 @@ def run_worker(settings: SweepSettings, name: str = "worker", log: Callable[[str
         lock.close()
 
 
-def _worker_process(settings: SweepSettings, name: str, threads: int) -> None:
+def _worker_process(settings: SweepSettings, name: str, threads: int, stop: Any) -> None:
     """Entry point of a ``--workers`` process (spawned: imports afresh, so torch's thread count is set again). A
-    SIGINT ignored by the parent (a background job of a script) would be ignored here too: Ctrl-C's handler again."""
+    SIGINT ignored by the parent (a background job of a script) would be ignored here too: Ctrl-C's handler again.
+    The parent's event ``stop`` stops it as well, should a Ctrl-C be lost (one raised inside a finalizer is)."""
     signal.signal(signal.SIGINT, signal.default_int_handler)
     torch.set_num_threads(threads)
     try:
-        run_worker(settings, name, log=lambda line: print(line, flush=True))
+        run_worker(settings, name, log=lambda line: print(line, flush=True), stop=stop)
     except KeyboardInterrupt:
         sys.exit(130)
 
@@ -467,8 +475,9 @@ def sweep(
         run_worker(settings, "worker 0", log)
         return study
     context = mp.get_context("spawn")
+    stop = context.Event()
     processes = [
-        context.Process(target=_worker_process, args=(settings, f"worker {k}", threads), name=f"vegym-sweep-{k}")
+        context.Process(target=_worker_process, args=(settings, f"worker {k}", threads, stop), name=f"vegym-sweep-{k}")
         for k in range(workers)
     ]
     with interrupts_handled(raise_keyboard_interrupt):  # also where SIGINT came in ignored, and for SIGTERM
@@ -478,6 +487,7 @@ def sweep(
             for process in processes:
                 process.join()
         except KeyboardInterrupt:
+            stop.set()
             started = [process for process in processes if process.pid is not None]
             for process in started:  # a signal to this process alone (not its group) stops the workers too
                 if process.is_alive():

@@ -7,6 +7,7 @@ import signal
 import sqlite3
 import subprocess
 import sys
+import threading
 import time
 import uuid
 from pathlib import Path
@@ -21,6 +22,7 @@ from agents import sweep as sweep_module
 from agents.cli import main
 from agents.config import CONFIG_DIR, load_config, load_configs, with_overrides
 from agents.sweep import SweepSettings, parse_tune_env, run_worker, sample_hyperparams
+from agents.training import TrainResult
 
 VEGYM = [sys.executable, "-c", "import sys; from agents.cli import main; sys.exit(main())"]
 POSTGRES_URL = os.environ.get("VEGYM_TEST_POSTGRES_URL")
@@ -193,6 +195,42 @@ def test_a_trial_left_before_its_first_heartbeat_is_failed_and_retried(tmp_path:
     assert [RetryHeartbeatStaleTrialCallback.retried_trial_number(t) for t in trials].count(orphan.number) == 1
 
 
+def test_a_worker_stops_before_its_next_trial_once_its_parent_sets_stop(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The ``--workers`` parent sets its stop event beside forwarding Ctrl-C, for a worker whose Ctrl-C was lost
+    (a KeyboardInterrupt raised inside a finalizer is): the trial it runs is handed the event, and no trial starts
+    after it."""
+    stop = threading.Event()
+    handed: list[object] = []
+
+    def set_stop(trial: optuna.Trial, settings: SweepSettings, score: object, stop_event: object) -> float:
+        handed.append(stop_event)
+        stop.set()
+        return 0.0
+
+    monkeypatch.setattr(sweep_module, "objective", set_stop)
+    settings = SweepSettings("vegym/BouncingBall-v0", "td3", 3, f"sqlite:///{tmp_path / 'study.db'}", "stop")
+    with pytest.raises(KeyboardInterrupt):
+        run_worker(settings, log=lambda line: None, stop=stop)
+    assert handed == [stop]
+
+
+def test_a_trial_s_training_stops_on_the_stop_event(monkeypatch: pytest.MonkeyPatch) -> None:
+    handed: list[object] = []
+
+    def interrupted_training(config: object, out: Path, **kwargs: object) -> TrainResult:
+        handed.append(kwargs["stop"])
+        return TrainResult(out / "model.zip", 0, True, 0.0)
+
+    monkeypatch.setattr(sweep_module, "train", interrupted_training)
+    stop = threading.Event()
+    settings = SweepSettings("vegym/BouncingBall-v0", "td3", 1, "sqlite:///unused.db", "stop")
+    with pytest.raises(KeyboardInterrupt):
+        sweep_module.objective(optuna.create_study().ask(), settings, lambda agent: 0.0, stop)
+    assert handed == [stop]
+
+
 def test_a_trial_has_a_heartbeat_before_its_objective_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     """A worker records its trial's first heartbeat itself (Optuna's heartbeat thread beats whenever it gets to
     run; here it never does), so that a worker killed later leaves a trial that goes stale."""
@@ -201,7 +239,7 @@ def test_a_trial_has_a_heartbeat_before_its_objective_runs(tmp_path: Path, monke
     monkeypatch.setattr(HeartbeatThread, "join", lambda self: None)
     beats: list[int] = []
 
-    def count_beats(trial: optuna.Trial, settings: SweepSettings, score: object) -> float:
+    def count_beats(trial: optuna.Trial, settings: SweepSettings, score: object, stop: object) -> float:
         with sqlite3.connect(database) as connection:
             query = "SELECT COUNT(*) FROM trial_heartbeats WHERE trial_id = ?"
             beats.append(connection.execute(query, (trial._trial_id,)).fetchone()[0])
