@@ -309,12 +309,18 @@ def test_an_interrupt_to_the_parent_alone_stops_its_workers(
     storage = f"sqlite:///{tmp_path / 'study.db'}"
     args = [*sweep_args(storage, "stopped", 50, tmp_path / "best.yml", "--workers", "2"), "--timesteps", "1000000"]
     ignore = (lambda: signal.signal(signal.SIGINT, signal.SIG_IGN)) if sigint_ignored else None
-    parent = subprocess.Popen(args, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, preexec_fn=ignore)
-    deadline = time.monotonic() + 300
-    while training_trials(tmp_path / "study.db") < 2:
-        if time.monotonic() > deadline:
-            parent.kill()
-            pytest.fail("the workers never started their trials")
-        time.sleep(0.2)
-    parent.send_signal(signum)  # to the parent's pid only: the workers hear of it from the parent
-    assert parent.wait(timeout=60) == 130
+    parent = subprocess.Popen(
+        args, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, preexec_fn=ignore, start_new_session=True
+    )
+    try:
+        deadline = time.monotonic() + 300
+        while training_trials(tmp_path / "study.db") < 2:
+            if time.monotonic() > deadline:
+                pytest.fail("the workers never started their trials")
+            time.sleep(0.2)
+        parent.send_signal(signum)  # to the parent's pid only: the workers hear of it from the parent
+        assert parent.wait(timeout=60) == 130
+    finally:  # a failure leaves no sweep training on: the parent's session holds its workers
+        if parent.poll() is None:
+            os.killpg(parent.pid, signal.SIGKILL)
+            parent.wait()
