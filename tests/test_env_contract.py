@@ -514,6 +514,26 @@ def test_vector_reset_mask_is_held_to_sync_vector_env_rules() -> None:
         vec.reset(options={"reset_mask": np.array([False, True, False])})
 
 
+def test_a_reset_option_the_env_does_not_take_raises_before_the_env_changes() -> None:
+    """A misspelled ``reset_mask`` or CartPole's ``low``/``high`` is refused, not ignored; the env is as it was.
+    SyncVectorEnv passes its sub-envs the options left after ``reset_mask``: they refuse them."""
+    env_id = "vegym/BouncingBall-v0"
+    single = gym.make(env_id)
+    vectors = [gym.make_vec(env_id, num_envs=3, vectorization_mode=mode) for mode in ("vector_entry_point", "sync")]
+    for env, allowed in ((single, "no options"), (vectors[0], "only 'reset_mask'"), (vectors[1], "no options")):
+        env.reset(seed=4)
+        reference = copy.deepcopy(env)
+        for options in ({"low": -0.1, "high": 0.1}, {"reset_mask": np.ones(3, bool), "resetmask": True}):
+            if env is single:
+                options.pop("reset_mask", None)
+            with pytest.raises(ValueError, match=re.escape(f"takes {allowed}")) as error:
+                env.reset(options=options)
+            assert str(sorted(set(options) - {"reset_mask"})) in str(error.value)
+        assert_same(env.reset(options={}), reference.reset())
+    reference = copy.deepcopy(vectors[0])
+    assert_same(vectors[0].reset(options={"reset_mask": np.ones(3, bool)}), reference.reset())
+
+
 @pytest.mark.parametrize("env_id", ENV_IDS)
 def test_threaded_chunks_step_exactly_as_one_chunk(env_id: str, monkeypatch: pytest.MonkeyPatch) -> None:
     n = 64

@@ -505,6 +505,15 @@ _ROW_0 = np.zeros(1, dtype=np.intp)
 """The rows argument of a single env's :meth:`Task.start` and :meth:`Task.restart`."""
 
 
+def check_reset_options(options: Mapping[str, Any] | None, known: tuple[str, ...]) -> None:
+    """Refuse reset options other than ``known`` (a misspelled ``reset_mask``, or CartPole's ``low``/``high``,
+    would otherwise be ignored without a word)."""
+    unknown = sorted(set(options or ()) - set(known))
+    if unknown:
+        takes = f"only {', '.join(map(repr, known))}" if known else "no options"
+        raise ValueError(f"reset options {unknown} are not understood: this env's reset takes {takes}")
+
+
 class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
     """A Gymnasium env running a :class:`Task` on a batch of one.
 
@@ -567,6 +576,9 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
             self._get_renderer().reset(self._snapshot())
 
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, Info]:
+        """Start an episode: the seeded one, or without a seed the next one of this env's sequence (the first drawn
+        from ``np_random``). There are no reset options; any key in ``options`` raises ``ValueError``."""
+        check_reset_options(options, ())
         seeded = rng.seed_keys([seed]) if seed is not None else None  # a bad seed raises before anything changes
         super().reset(seed=seed)
         state = self.state
@@ -793,8 +805,9 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         single env's ``reset()``) would; with a seed, masked sub-env ``i`` gets ``seed + i`` (or ``seed[i]``).
         A reset without a seed or a mask does the former for every sub-env, once there is a state (the first
         draws the keys from the vector env's ``np_random``), so that, as with single envs, only seeds choose the
-        episodes.
+        episodes. Any other key in ``options`` raises ``ValueError``.
         """
+        check_reset_options(options, ("reset_mask",))
         mask = (options or {}).get("reset_mask")
         if mask is None and seed is None and self.state is not None:
             mask = np.ones(self.num_envs, dtype=bool)
