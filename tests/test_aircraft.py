@@ -317,6 +317,10 @@ def test_gusty_is_aircraft_with_drafts_and_gusts_by_registration() -> None:
         ({"altitude_min": -5.0}, "altitude_min"),
         ({"ceiling_altitude": 1500.0}, "ceiling_altitude"),
         ({"final_hold": 400.0}, "final_hold"),
+        (
+            {"episode_steps": 50},
+            r"final_hold=90.0 is outside the allowed range \[0, episode_steps \* dt = 50 \* 1.0 = 50\]",
+        ),
         ({"change_interval_min": 130.0}, "change_interval_min"),
         ({"altitude_scale": 0.0}, "altitude_scale"),
         ({"episode_steps": 0}, "episode_steps"),

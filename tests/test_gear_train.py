@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 
 import gymnasium as gym
@@ -123,6 +124,9 @@ def test_the_step_writes_the_observation_of_its_state_bit_for_bit_across_target_
 def test_parameters_that_could_turn_the_output_half_a_turn_per_step_are_rejected() -> None:
     with pytest.raises(ValueError, match="max_speed"):
         GearTrainParams(max_speed=20.0)
+    bound = re.escape("(0, pi / (dt * radius_max / radius_min) = pi / (0.5 * 0.08 / 0.02) = 1.571)")
+    with pytest.raises(ValueError, match=f"max_speed=10.0 is outside the allowed range {bound}"):  # dt's choice
+        GearTrainParams(dt=0.5)
     with pytest.raises(ValueError, match="gears_min"):
         GearTrainParams(gears_min=6)
     with pytest.raises(ValueError, match="target_interval"):

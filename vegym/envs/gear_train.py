@@ -47,7 +47,8 @@ class GearTrainParams(Params):
             raise invalid(
                 "max_speed",
                 self.max_speed,
-                f"(0, pi / (dt * radius_max / radius_min) = {np.pi / (self.dt * self.ratio_max):.4g})",
+                f"(0, pi / (dt * radius_max / radius_min) = pi / ({self.dt} * {self.radius_max} / {self.radius_min})"
+                f" = {np.pi / (self.dt * self.ratio_max):.4g})",
             )
 
     @property

@@ -105,7 +105,9 @@ class ChangeSchedule:
         if not dt <= interval_min <= interval_max:
             raise invalid("change_interval_min", interval_min, f"[dt={dt}, change_interval_max={interval_max}]")
         if final_hold > episode_steps * dt:
-            raise invalid("final_hold", final_hold, f"[0, episode_steps * dt={episode_steps * dt}]")
+            raise invalid(
+                "final_hold", final_hold, f"[0, episode_steps * dt = {episode_steps} * {dt} = {episode_steps * dt:.6g}]"
+            )
         last_step = episode_steps - int(math.ceil(final_hold / dt - 1e-9))
         return cls(interval_min, interval_max, dt, last_step, stream)
 
