@@ -505,10 +505,10 @@ _ROW_0 = np.zeros(1, dtype=np.intp)
 """The rows argument of a single env's :meth:`Task.start` and :meth:`Task.restart`."""
 
 
-def check_reset_options(options: Mapping[str, Any] | None, known: tuple[str, ...]) -> None:
+def check_reset_options(options: Mapping[str, Any], known: tuple[str, ...]) -> None:
     """Refuse reset options other than ``known`` (a misspelled ``reset_mask``, or CartPole's ``low``/``high``,
     would otherwise be ignored without a word)."""
-    unknown = sorted(set(options or ()) - set(known))
+    unknown = sorted(set(options) - set(known))
     if unknown:
         takes = f"only {', '.join(map(repr, known))}" if known else "no options"
         raise ValueError(f"reset options {unknown} are not understood: this env's reset takes {takes}")
@@ -578,7 +578,8 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, Info]:
         """Start an episode: the seeded one, or without a seed the next one of this env's sequence (the first drawn
         from ``np_random``). There are no reset options; any key in ``options`` raises ``ValueError``."""
-        check_reset_options(options, ())
+        if options:  # a test of its own: Projectile's and Billiards's single envs reset after every step
+            check_reset_options(options, ())
         seeded = rng.seed_keys([seed]) if seed is not None else None  # a bad seed raises before anything changes
         super().reset(seed=seed)
         state = self.state
@@ -807,8 +808,9 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         draws the keys from the vector env's ``np_random``), so that, as with single envs, only seeds choose the
         episodes. Any other key in ``options`` raises ``ValueError``.
         """
+        options = options or {}
         check_reset_options(options, ("reset_mask",))
-        mask = (options or {}).get("reset_mask")
+        mask = options.get("reset_mask")
         if mask is None and seed is None and self.state is not None:
             mask = np.ones(self.num_envs, dtype=bool)
         if mask is not None:
