@@ -107,6 +107,30 @@ def test_autopilot_reaches_step_demands_without_overshoot_when_k_dt_at_most_one(
     assert errors[0, 1, 2] == pytest.approx(2 * math.pi - 6.0)  # 3 rad to -3 rad: the short way, through pi
 
 
+def test_autopilot_is_three_saturated_p_loops_on_the_wrapped_heading_error() -> None:
+    """``(clip(k_a v_err, -A_dec, A_acc), clip(k_v y_err, -V_des, V_cli), clip(k_psi wrap(psi_err), -M, M))`` on
+    errors (altitude, speed, heading) that saturate and heading errors past +-pi (section 10)."""
+    rng = np.random.default_rng(3)
+    errors = np.column_stack([rng.uniform(-500, 500, 200), rng.uniform(-80, 80, 200), rng.uniform(-9.0, 9.0, 200)])
+    errors[:4, 2] = [3.5, -3.5, 2 * math.pi + 0.01, -0.01]  # 3.5 rad to the left is 2 pi - 3.5 to the right
+    command = aircraft.autopilot(errors, PARAMS, GAINS)
+    p = PARAMS
+    np.testing.assert_array_equal(
+        command[:, 0], np.clip(GAINS.speed_gain * errors[:, 1], -p.max_deceleration, p.max_acceleration)
+    )
+    np.testing.assert_array_equal(
+        command[:, 1], np.clip(GAINS.climb_gain * errors[:, 0], -p.max_descent_rate, p.max_climb_rate)
+    )
+    heading_error = (errors[:, 2] + math.pi) % (2 * math.pi) - math.pi
+    np.testing.assert_allclose(
+        command[:, 2], np.clip(GAINS.heading_gain * heading_error, -p.max_turn_rate, p.max_turn_rate), atol=1e-15
+    )
+    turn = p.max_turn_rate  # gain 0.5: 0.1 rad of error saturates it
+    np.testing.assert_allclose(command[:4, 2], [-turn, turn, 0.005, -0.005], atol=1e-15)
+    for column, low, high in zip(command.T, p.command_low, p.command_high, strict=True):
+        assert low in column and high in column  # every limit binds somewhere
+
+
 def test_autopilot_overshoots_when_k_dt_exceeds_one() -> None:
     start = aircraft.initial_state([[0.0, 1000.0, 0.0]], 100.0, 0.0)
     errors = step_response(1.0, AutopilotGains(climb_gain=1.5), np.array([[1010.0, 100.0, 0.0]]), start, 5)

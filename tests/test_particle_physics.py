@@ -41,6 +41,14 @@ def test_time_to_ground_is_zero_on_the_ground_and_infinite_below_it_when_falling
     assert t[0] == 0.0 and t[1] == 0.0 and np.isinf(t[2])
 
 
+def test_time_to_ground_below_the_ground_is_zero_falling_and_the_later_root_rising() -> None:
+    """The docstring's cases for h < r, which no env reaches: +inf without a real root, else 0 moving down and,
+    moving up, the time it falls back through h = r."""
+    t = particle.time_to_ground(np.array([0.05, 0.05, 0.05]), np.array([-3.0, 3.0, 0.5]), 0.1, G)
+    s = np.sqrt(9.0 - 2 * G * 0.05)
+    assert t[0] == 0.0 and t[1] == pytest.approx((3.0 + s) / G, rel=1e-12) and np.isinf(t[2])
+
+
 def test_impact_velocity_is_negative_and_from_energy() -> None:
     v_g = particle.impact_velocity(np.array([3.0]), np.array([2.0]), 0.2, G)
     assert v_g[0] == pytest.approx(-np.sqrt(4.0 + 2 * G * 2.8), abs=1e-12)

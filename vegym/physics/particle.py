@@ -103,8 +103,10 @@ def time_to_ground(h: np.ndarray, v: np.ndarray, radius: float, gravity: float) 
     """Exact time until the centre reaches ``h = radius`` (the corrected 8.8/8.11).
 
     Uses the cancellation-free root: ``t = (v + s)/g`` if ``v > 0`` else ``2 (h - r)/(s - v)``, with
-    ``s = sqrt(v^2 + 2 g (h - r))``. Returns ``0`` for a particle on the ground moving down (or at rest) and
-    ``+inf`` where there is no contact ahead (only possible below the ground, ``h < r``).
+    ``s = sqrt(v^2 + 2 g (h - r))``. Returns ``0`` for a particle on the ground moving down (or at rest). Meant
+    for ``h >= r`` (section 1; :func:`event_step` refuses less): below the ground it gives ``+inf`` where
+    ``v^2 + 2 g (h - r) < 0``, otherwise 0 moving down and, moving up, the time it falls back through ``h = r``
+    (the later root).
     """
     shape, (h, v) = flat_columns(h, v)
     return _ground_each(h, v, float(radius), float(gravity))[0].reshape(shape)[()]

@@ -3,7 +3,8 @@
 Corrected forms from PHYSICS.md section 8. Hooke's law with modulus ``lambda`` and natural length ``l`` gives the
 stiffness ``k = lambda / l``. The book's per-step velocity factor ``k_d`` (8.96) is replaced by a viscous damper
 ``c`` (N s/m, a rate, so the motion does not depend on the step), and the book's per-step terrain difference ``h``
-by the cumulative base displacement: the spring's foot rides at ``y_b(t) = terrain(x(t))``.
+by the cumulative base displacement: the spring's foot, the wheel's axle, rides at ``y_b(t) = terrain(x(t)) + r_w``
+(Suspension-v0 measures it from its start, ``terrain(x) - terrain(x_0)``: a constant shift).
 
 Quarter-car, y up: a body of mass ``m`` at height ``y`` on top of a spring and a damper whose foot is the wheel
 axle at height ``y_b``, moving at ``v_b = terrain'(x) dx/dt``::
