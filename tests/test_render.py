@@ -4,6 +4,7 @@ views show what the state has (orientation, rest points, a state put back)."""
 from __future__ import annotations
 
 import gc
+import math
 import subprocess
 import sys
 from typing import Any
@@ -266,6 +267,35 @@ def test_small_gears_are_drawn_with_teeth_in_proportion(monkeypatch: pytest.Monk
     for points in outlines:
         distance = np.linalg.norm(points - points.mean(axis=0), axis=1)
         assert distance.min() > 0.8 * distance.max()
+
+
+def test_gear_train_draws_the_target_of_the_error_it_reports_and_a_next_one_apart(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The green target is the one of the step drawn (info's ``target_angle``, whose error the text reports); after
+    a step at which the target changes, the new one is drawn too, in black (it drew only the new one, in green)."""
+    dots: list[tuple[Any, int, Any]] = []
+    dot = canvas.Panel.dot
+    monkeypatch.setattr(
+        canvas.Panel,
+        "dot",
+        lambda panel, *args: dots.append(args) or dot(panel, *args),  # (centre, pixels, colour)
+    )
+    env = gym.make("vegym/GearTrain-v0", render_mode="rgb_array")
+    env.reset(seed=3)
+    task, interval = env.unwrapped.task, env.unwrapped.params.interval_steps
+    for step in range(1, interval + 2):
+        info = env.step(np.array([0.4], np.float32))[-1]
+        dots.clear()
+        env.render()
+        output_x = [centre[0] for centre, pixels, _ in dots if pixels == 3][-1]  # the gears' centres, output last
+        targets = {colour: math.atan2(y, x - output_x) for (x, y), pixels, colour in dots if pixels == 5}
+        assert math.sin(targets[canvas.GREEN] - info["target_angle"]) == pytest.approx(0.0, abs=1e-9)
+        assert math.cos(targets[canvas.GREEN] - info["target_angle"]) > 0.0
+        upcoming = float(task.target(env.unwrapped.state["key"], env.unwrapped.state["step"])[0])
+        assert (canvas.BLACK in targets) == (step % interval == 0) == (upcoming != info["target_angle"])
+        if canvas.BLACK in targets:
+            assert math.sin(targets[canvas.BLACK] - upcoming) == pytest.approx(0.0, abs=1e-9)
 
 
 def test_long_episodes_draw_a_bounded_history(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -59,7 +59,8 @@ class GearTrainRenderer:
         world = (left - pad, right + pad, -p.radius_max - pad, p.radius_max + pad)
         panel = canvas.Panel(surface, (20, 70, WIDTH - 40, 260), world, equal_aspect=True)
         panel.frame(canvas.LIGHT)
-        target = float(self.task.target(s["key"], s["step"])[0])
+        upcoming = float(self.task.target(s["key"], s["step"])[0])  # what the observation now shows
+        target = float(self.last["target_angle"]) if self.last else upcoming  # that of the error in the text
         for k, (x, radius, angle) in enumerate(zip(centres, radii, angles, strict=True)):
             body = canvas.ORANGE if k == 0 else canvas.BLUE if k == gears - 1 else canvas.GREY
             panel.polygon(gear_outline(radius, angle, depth) + [x, 0.0], body)
@@ -74,10 +75,14 @@ class GearTrainRenderer:
             canvas.text(surface, [label, f"r = {radius * 100:.3g} cm"], (px - 30, py + 6), 16, canvas.GREY)
         reach = radii[-1] * 1.35
         out = centres[-1]
+        if upcoming != target:  # a new target from the next step on
+            end = (out + reach * np.cos(upcoming), reach * np.sin(upcoming))
+            panel.dashed((out, 0.0), end, canvas.BLACK, dashes=5)
+            panel.dot(end, 5, canvas.BLACK)
         panel.dashed((out, 0.0), (out + reach * np.cos(target), reach * np.sin(target)), canvas.GREEN, dashes=5)
         panel.dot((out + reach * np.cos(target), reach * np.sin(target)), 5, canvas.GREEN)
         self._strip(surface)
-        self._numbers(surface, gears)
+        self._numbers(surface, gears, changing=upcoming != target)
         clock.draw_clock(surface, float(s["step"][0]) * p.dt, (WIDTH - clock.CORNER, clock.CORNER), clock.RADIUS)
         return canvas.to_array(surface)
 
@@ -102,13 +107,13 @@ class GearTrainRenderer:
             canvas.GREY,
         )
 
-    def _numbers(self, surface: Any, gears: int) -> None:
+    def _numbers(self, surface: Any, gears: int, changing: bool) -> None:
         s = self.state
         ratio = float(GearTrainTask.ratio(s)[0])
         output = float(GearTrainTask.output_angle(s)[0])
         lines = [
             f"{gears} gears, ratio omega_out / omega_in = {ratio:+.3f}   "
-            f"output {np.degrees(output):+.1f} deg (red spoke), target green",
+            f"output {np.degrees(output):+.1f} deg (red spoke), target green" + (", next black" if changing else ""),
         ]
         if self.last:
             verdict = "on target" if self.last["is_success"] else "off target"
