@@ -153,6 +153,35 @@ def test_projectile_top_view_is_seen_from_above_and_keeps_the_wind_arrow_inside(
         assert rows.mean() > 390 + 20  # the arrow points down
 
 
+@pytest.mark.parametrize("env_id", ["vegym/Projectile-v0", "vegym/ProjectileAdjust-v0"])
+def test_projectile_views_take_in_every_shot_s_whole_flight_and_landing(
+    env_id: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Random shots climb up to 66 m and land up to 110 m away: every drawn path point and landing lies inside its
+    panel (half of such shots left a fixed view; ProjectileAdjust's landings beyond its panel are rings at its
+    edge)."""
+    drawn: list[tuple[list[list[int]], Any]] = []
+    for name in ("polyline", "dot", "circle"):
+        method = getattr(canvas.Panel, name)
+
+        def recording(panel: canvas.Panel, points: Any, *args: Any, method: Any = method) -> None:
+            drawn.append((panel.pixels(np.reshape(points, (-1, 2))), panel.rect.inflate(2, 2)))
+            method(panel, points, *args)
+
+        monkeypatch.setattr(canvas.Panel, name, recording)
+    env = gym.make(env_id, render_mode="rgb_array")
+    env.action_space.seed(2)
+    for seed in range(20):
+        env.reset(seed=seed)
+        for _ in range(2 if env_id.endswith("Adjust-v0") else 1):
+            env.step(env.action_space.sample())
+        drawn.clear()
+        env.render()
+        assert len(drawn) >= 3
+        for pixels, rect in drawn:
+            assert all(rect.collidepoint(x, y) for x, y in pixels), (seed, rect)
+
+
 def test_billiards_frame_after_the_strike_takes_in_both_rest_points(monkeypatch: pytest.MonkeyPatch) -> None:
     """Every ball circle drawn (starts, contact and rest points) has its centre inside the table's rectangle,
     for random strikes, which send the balls far."""

@@ -11,6 +11,26 @@ from vegym.physics import projectile
 from vegym.render import canvas, clock
 
 WIDTH, HEIGHT = 640, 480
+MARGIN = 0.05
+"""Space around the drawn scene, as a fraction of the view's span."""
+
+
+def shot_path(p0: np.ndarray, shot: dict[str, Any], physics: projectile.ProjectileParams) -> np.ndarray:
+    """Points (80, 3) of ``shot``'s flight (an env's step info) relative to the launch point ``p0`` (m)."""
+    t = np.linspace(0.0, shot["flight_time"], 80)
+    return projectile.position_at(p0[None], shot["launch_velocity"][None], shot["wind"][None], t, physics) - p0
+
+
+def side_world(
+    reach: float, launch_height: float, launch_height_max: float, paths: list[np.ndarray], along: np.ndarray
+) -> tuple[float, float, float, float]:
+    """The side view's world box (along the line of fire ``along``, height; m): the launcher, ``reach`` and at
+    least 1.6 times the highest launch, widened to take in every path (k, 3) relative to the launcher, which
+    stands ``launch_height`` high."""
+    x = [0.0, reach, *(float(v) for path in paths for v in (np.min(path @ along), np.max(path @ along)))]
+    top = max([max(launch_height_max, 10.0) * 1.6, *(1.05 * (launch_height + np.max(path[:, 1])) for path in paths)])
+    x_span = max(x) - min(x)
+    return min(x) - MARGIN * x_span, max(x) + MARGIN * x_span, -MARGIN * top, top
 
 
 class ProjectileRenderer:
@@ -41,11 +61,12 @@ class ProjectileRenderer:
         p0 = s["launch_position"]
         surface = canvas.new_surface(WIDTH, HEIGHT)
         reach = p.target_distance_max * 1.15
-        half_width = reach / 8  # of the top view (m)
-        side = canvas.Panel(
-            surface, (40, 50, WIDTH - 60, 250), (-5.0, reach, -2.0, max(p.launch_height_max, 10.0) * 1.6)
-        )
-        top = canvas.Panel(surface, (40, 320, WIDTH - 60, 140), (-5.0, reach, -half_width, half_width))
+        path = shot_path(p0, self.shot, p.physics) if self.shot else None
+        paths = [] if path is None else [path]
+        left, right, bottom, top_height = side_world(reach, float(p0[1]), p.launch_height_max, paths, along)
+        half_width = max([reach / 8, *((1.0 + MARGIN) * np.max(np.abs(path @ across)) for path in paths)])  # m
+        side = canvas.Panel(surface, (40, 50, WIDTH - 60, 250), (left, right, bottom, top_height))
+        top = canvas.Panel(surface, (40, 320, WIDTH - 60, 140), (left, right, -half_width, half_width))
 
         def top_view(points: np.ndarray) -> np.ndarray:
             """Points (..., 3) relative to the launcher in the top view's coordinates: along, minus across."""
@@ -53,9 +74,9 @@ class ProjectileRenderer:
 
         for panel in (side, top):
             panel.frame(canvas.LIGHT)
-        side.line((-5.0, 0.0), (reach, 0.0), canvas.BLACK, 2)
+        side.line((left, 0.0), (right, 0.0), canvas.BLACK, 2)
         side.line((0.0, 0.0), (0.0, p0[1]), canvas.BLACK, 4)
-        top.line((-5.0, 0.0), (reach, 0.0), canvas.LIGHT)
+        top.line((left, 0.0), (right, 0.0), canvas.LIGHT)
         for panel in (side, top):
             panel.line((distance - p.hit_radius, 0.0), (distance + p.hit_radius, 0.0), canvas.RED, 5)
             panel.dot((distance, 0.0), 4, canvas.RED)
@@ -66,10 +87,8 @@ class ProjectileRenderer:
             f"target {distance:.1f} m   launch height {p0[1]:.1f} m   "
             f"wind {w_along:+.1f} along, {w_across:+.1f} across m/s"
         ]
-        if self.shot:
-            v0, w = self.shot["launch_velocity"], self.shot["wind"]
-            t = np.linspace(0.0, self.shot["flight_time"], 80)
-            path = projectile.position_at(p0[None], v0[None], w[None], t, p.physics) - p0
+        if path is not None:
+            v0 = self.shot["launch_velocity"]
             side.polyline(np.stack([path @ along, path[:, 1] + p0[1]], -1), canvas.BLUE)
             landing = self.shot["landing_point"] - p0
             side.dot((float(landing @ along), p.radius), 4, canvas.BLUE)

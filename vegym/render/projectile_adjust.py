@@ -8,8 +8,8 @@ import numpy as np
 
 from vegym.envs.projectile import ProjectileTask
 from vegym.envs.projectile_adjust import ProjectileAdjustParams
-from vegym.physics import projectile
 from vegym.render import canvas, clock
+from vegym.render.projectile import shot_path, side_world
 
 WIDTH, HEIGHT = 760, 440
 _TEXT_LINES = 4
@@ -39,13 +39,15 @@ class ProjectileAdjustRenderer:
         p0 = self.state["launch_position"][0]
         surface = canvas.new_surface(WIDTH, HEIGHT)
         reach = p.target_distance_max * 1.15
-        side = canvas.Panel(surface, (40, 70, 420, 260), (-5.0, reach, -2.0, max(p.launch_height_max, 10.0) * 1.6))
+        paths = [shot_path(p0, shot, p.physics) for shot in self.shots]
+        left, right, bottom, top_height = side_world(reach, float(p0[1]), p.launch_height_max, paths, along)
+        side = canvas.Panel(surface, (40, 70, 420, 260), (left, right, bottom, top_height))
         misses = [abs(shot[k]) for shot in self.shots for k in ("miss_along", "miss_across")]
         zoom = float(np.clip(1.3 * max(misses, default=0.0), 3.0 * p.hit_radius, p.miss_scale))
         top = canvas.Panel(surface, (490, 70, 250, 260), (-zoom, zoom, -zoom, zoom), equal_aspect=True)
         side.frame(canvas.LIGHT)
         top.frame(canvas.LIGHT)
-        side.line((-5.0, 0.0), (reach, 0.0), canvas.BLACK, 2)
+        side.line((left, 0.0), (right, 0.0), canvas.BLACK, 2)
         side.line((0.0, 0.0), (0.0, p0[1]), canvas.BLACK, 4)
         side.line((distance - p.hit_radius, 0.0), (distance + p.hit_radius, 0.0), canvas.RED, 5)
         top.line((-zoom, 0.0), (zoom, 0.0), canvas.LIGHT)
@@ -58,16 +60,19 @@ class ProjectileAdjustRenderer:
             canvas.GREY,
         )
         lines = []
-        for k, shot in enumerate(self.shots):
+        for k, (shot, path) in enumerate(zip(self.shots, paths, strict=True)):
             color = SHOT_COLORS[k % len(SHOT_COLORS)]
-            v0, w = shot["launch_velocity"], shot["wind"]
-            t = np.linspace(0.0, shot["flight_time"], 80)
-            path = projectile.position_at(p0[None], v0[None], w[None], t, p.physics) - p0
             side.polyline(np.stack([path @ along, path[:, 1] + p0[1]], -1), color)
-            landing = (shot["miss_across"], shot["miss_along"])
+            landing = np.array([shot["miss_across"], shot["miss_along"]])
+            edge = 0.92 * zoom  # a landing beyond the panel: a ring at its edge, in the landing's direction
+            beyond = np.max(np.abs(landing)) > edge
+            shown = landing * edge / np.max(np.abs(landing)) if beyond else landing
             surface.set_clip(top.rect)
-            top.dot(landing, 5, color)
-            x, y = top.to_px(*landing)
+            if beyond:
+                top.circle(shown, 6.0 / top.scale[0], color, 2)  # 6 px
+            else:
+                top.dot(shown, 5, color)
+            x, y = top.to_px(*shown)
             canvas.text(surface, [str(k + 1)], (x + 7, y - 8), 18, color)
             surface.set_clip(None)
             verdict = "HIT" if shot["is_success"] else "miss"
@@ -88,7 +93,8 @@ class ProjectileAdjustRenderer:
             [
                 "top view: fire upward,",
                 "bearing increasing to the right;",
-                f"grey: hidden wind {np.linalg.norm(wind):.1f} m/s",
+                f"grey: hidden wind {np.linalg.norm(wind):.1f} m/s;",
+                "ring: a landing beyond the edge",
             ],
             (490, 335),
             16,
