@@ -182,6 +182,41 @@ def test_projectile_views_take_in_every_shot_s_whole_flight_and_landing(
             assert all(rect.collidepoint(x, y) for x, y in pixels), (seed, rect)
 
 
+def test_aircraft_is_drawn_nose_first_along_its_heading_and_a_horizontal_wind_as_an_arrow(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The marker is an aircraft whose nose (its outline's point farthest from the position) lies along the
+    heading, seen from above (screen right -x, up +z); a horizontal wind gets an arrow along it (the
+    near-equilateral triangle drawn before read as pointing elsewhere, and no view showed the wind)."""
+    polygons, arrows = [], []
+    polygon, arrow = canvas.Panel.polygon, canvas.Panel.arrow
+    monkeypatch.setattr(
+        canvas.Panel, "polygon", lambda panel, points, *a: polygons.append(points) or polygon(panel, points, *a)
+    )
+    monkeypatch.setattr(
+        canvas.Panel, "arrow", lambda panel, tail, vector, *a: arrows.append(vector) or arrow(panel, tail, vector, *a)
+    )
+    for wind in ((0.0, 0.0), (30.0, -20.0)):
+        env = gym.make("vegym/Aircraft-v0", render_mode="rgb_array", wind_x=wind[0], wind_z=wind[1])
+        for seed in range(3):
+            env.reset(seed=seed)
+            env.step(np.zeros(3, np.float32))
+            polygons.clear()
+            arrows.clear()
+            env.render()
+            state = env.unwrapped.state
+            heading, (x, _, z) = float(state["heading"][0]), state["position"][0]
+            (outline,) = polygons
+            nose = outline[np.argmax(np.linalg.norm(outline - (-x, z), axis=1))] - (-x, z)
+            assert math.atan2(nose[1], nose[0]) == pytest.approx(math.atan2(math.cos(heading), -math.sin(heading)))
+            winds = [vector for vector in arrows if not np.allclose(vector[0], 0.0)]  # +z's arrow is vertical
+            if wind == (0.0, 0.0):
+                assert winds == []
+            else:
+                (shown,) = winds
+                assert math.atan2(shown[1], shown[0]) == pytest.approx(math.atan2(wind[1], -wind[0]))
+
+
 def test_billiards_frame_after_the_strike_takes_in_both_rest_points(monkeypatch: pytest.MonkeyPatch) -> None:
     """Every ball circle drawn (starts, contact and rest points) has its centre inside the table's rectangle,
     for random strikes, which send the balls far."""

@@ -12,6 +12,12 @@ from vegym.render import canvas, clock
 WIDTH, HEIGHT = 900, 520
 _MIN_SPAN = 4000.0
 """Smallest side of the top view (m): about a standard-rate circle at 100 m/s."""
+_HALF = np.array(
+    [[2.0, 0.0], [1.0, 0.2], [0.3, 0.2], [-0.2, 1.5], [-0.55, 1.5], [-0.35, 0.2], [-1.1, 0.15], [-1.4, 0.65],
+     [-1.65, 0.65], [-1.55, 0.0]]
+)  # fmt: skip
+_SILHOUETTE = np.concatenate([_HALF, _HALF[-2:0:-1] * [1.0, -1.0]])
+"""The aircraft's outline (k, 2) in lengths along (nose ahead) and left of its heading: fuselage, wings, tail."""
 
 
 class AircraftRenderer:
@@ -67,13 +73,17 @@ class AircraftRenderer:
         heading = float(self.state["heading"])
         forward = np.array([-np.sin(heading), np.cos(heading)])
         left = np.array([-forward[1], forward[0]])
-        size = span / 40
-        nose = plan[-1] + 1.6 * size * forward
-        wings = [plan[-1] - size * forward + size * left, plan[-1] - size * forward - size * left]
+        outline = plan[-1] + (span / 45) * (_SILHOUETTE[:, :1] * forward + _SILHOUETTE[:, 1:] * left)
         demand = float(self.state["demand"][2])
         wanted = np.array([-np.sin(demand), np.cos(demand)])
         panel.dashed(plan[-1], plan[-1] + 0.25 * span * wanted, canvas.ORANGE, dashes=6)
-        panel.polygon(np.array([nose, wings[0], wings[1]]), canvas.RED)
+        panel.polygon(outline, canvas.RED)
+        wind = np.array([-self.params.wind_x, self.params.wind_z])  # in the view's coordinates
+        if wind.any():
+            tail = np.array([world[0] + 0.12 * span, world[3] - 0.2 * span])
+            panel.arrow(tail, 0.08 * span * wind / np.linalg.norm(wind), canvas.GREEN)
+            label_x, label_y = panel.to_px(*(tail - [0.07 * span, 0.13 * span]))
+            canvas.text(surface, [f"wind {np.linalg.norm(wind):.1f} m/s"], (label_x, label_y), 16, canvas.GREEN)
         bar = 1000.0 if span < 12000.0 else 5000.0
         x0, y0 = world[0] + 0.05 * span, world[2] + 0.05 * span
         panel.line((x0, y0), (x0 + bar, y0), canvas.BLACK, 3)
@@ -84,7 +94,7 @@ class AircraftRenderer:
         surface.set_clip(None)
         canvas.text(
             surface,
-            ["top view (right: -x, up: +z); green: start, orange: demand"],
+            ["top view (right: -x, up: +z); green: start, wind; orange: demand"],
             (19, 88),
             16,
             canvas.GREY,
