@@ -298,6 +298,40 @@ def test_the_bouncing_ball_is_drawn_to_the_scale_of_the_height_axis(monkeypatch:
         assert pixels == round(0.5 * panel.rect.height / (1.08 * env.unwrapped.params.drop_height))
 
 
+def test_bouncing_ball_marks_its_shown_targets_legibly_and_none_once_at_rest(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The shown targets' marks take a share of the time axis, so they stay wide in long flights (fixed 0.2 s marks
+    were 2-5 px at gravity 1.6), each at its height and inside the panel; a ball at rest shows none and says so."""
+    marks, texts = [], []
+    line, text = canvas.Panel.line, canvas.text
+    monkeypatch.setattr(
+        canvas.Panel,
+        "line",
+        lambda panel, a, b, color, width=1: (
+            (color in (canvas.RED, canvas.ORANGE) and marks.append((panel, a, b))) or line(panel, a, b, color, width)
+        ),
+    )
+    monkeypatch.setattr(canvas, "text", lambda surface, lines, *a: texts.extend(lines) or text(surface, lines, *a))
+    env = gym.make("vegym/BouncingBall-v0", render_mode="rgb_array", gravity=1.6)
+    env.reset(seed=3)
+    for _ in range(10):
+        env.step(np.array([0.5], np.float32))
+        marks.clear()
+        env.render()
+        state = env.unwrapped.state
+        ahead = [(panel, a, b) for panel, a, b in marks if a[0] >= state["time"][0]]  # not the past targets' dashes
+        assert [a[1] for _, a, _ in ahead] == list(state["targets"][0])
+        for panel, a, b in ahead:
+            (x0, _), (x1, y1) = panel.to_px(*a), panel.to_px(*b)
+            assert x1 - x0 >= 30 and panel.rect.collidepoint(x1, y1)
+    env.reset(seed=1)
+    texts.clear()
+    marks.clear()
+    env.step(np.array([-1.0], np.float32))  # e = 0: at rest
+    env.render()
+    assert not [a for _, a, _ in marks if a[1] in env.unwrapped.state["targets"][0]]
+    assert any("at rest" in line for line in texts)
+
+
 def test_a_human_window_shows_a_frame_at_least_every_second(monkeypatch: pytest.MonkeyPatch) -> None:
     """BouncingBall with little gravity steps 0.03 times a second: real time would hold the window 33 s a frame."""
     import pygame

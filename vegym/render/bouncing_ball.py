@@ -12,6 +12,8 @@ from vegym.render import canvas, clock
 WIDTH, HEIGHT = 640, 400
 SHOWN_FLIGHTS = 30
 """The flights drawn: the latest ones (a long episode's whole history would fill the panel)."""
+AHEAD = 0.3
+"""Share of the time axis ahead of the ball, where the shown targets are marked."""
 
 
 class BouncingBallRenderer:
@@ -44,7 +46,8 @@ class BouncingBallRenderer:
         surface = canvas.new_surface(WIDTH, HEIGHT)
         shown = self.flights[-SHOWN_FLIGHTS:]
         start_time = shown[0][0] if len(self.flights) > SHOWN_FLIGHTS else 0.0
-        span = max(self.time - start_time + 1.5, 4.0)
+        span = max((self.time - start_time) / (1.0 - AHEAD), 4.0)
+        resting = bool(self.flights) and self.flights[-1][1] < p.rest_speed  # the episode has terminated
         world = (start_time, start_time + span, 0.0, p.drop_height * 1.08)
         panel = canvas.Panel(surface, (50, 60, WIDTH - 70, HEIGHT - 90), world)
         panel.frame(canvas.LIGHT)
@@ -60,15 +63,23 @@ class BouncingBallRenderer:
             end = start + max(duration, 0.15)
             panel.dashed((start, target), (end, target), canvas.ORANGE, dashes=4)
             panel.dot((start + 0.5 * duration, apex), 3, canvas.BLUE)
-        for k, target in enumerate(self.targets):
-            x0 = self.time + 0.25 * k
-            panel.line((x0, target), (x0 + 0.2, target), canvas.RED if k == 0 else canvas.ORANGE, 3 if k == 0 else 1)
+        spacing = AHEAD * span / (len(self.targets) + 0.5)  # the shown targets fill the view ahead of the ball
+        for k, target in enumerate([] if resting else self.targets):
+            x0 = self.time + spacing * k
+            panel.line(
+                (x0, target), (x0 + 0.8 * spacing, target), canvas.RED if k == 0 else canvas.ORANGE, 3 if k == 0 else 1
+            )
         panel.dot((self.time, r), max(3, round(panel.scale[1] * r)), canvas.BLUE)  # sized on the height axis
         for h in np.arange(0.0, p.drop_height * 1.05, canvas.tick_step(p.drop_height, 0.5, 12)):
             x, y = panel.to_px(start_time, h)
             canvas.text(surface, [f"{h:.1f}"], (x - 34, y - 6), 16, canvas.GREY)
         bounce = len(self.flights)
-        lines = [f"bounce {bounce}   t = {self.time:.2f} s   next target {self.targets[0]:.2f} m (red)"]
+        if resting:
+            ahead = "at rest: episode over"
+        else:
+            past = ", past the planned bounces" if bounce >= p.episode_bounces else ""
+            ahead = f"next target {self.targets[0]:.2f} m (red{past})"
+        lines = [f"bounce {bounce} of {p.episode_bounces} planned   t = {self.time:.2f} s   {ahead}"]
         if self.last:
             lines.append(
                 f"e = {self.last['restitution']:.3f}   apex {self.last['apex_height']:.3f} m   "
