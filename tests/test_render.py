@@ -240,6 +240,48 @@ def test_billiards_frame_after_the_strike_takes_in_both_rest_points(monkeypatch:
             assert rect.collidepoint(x, y), (seed, (x, y), rect)
 
 
+def test_billiards_draws_balls_visible_a_grid_over_the_whole_table_and_says_how_a_missing_a_went(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A hard strike zooms the table out to A's rest point 15 m away: the balls and the target ring keep a radius
+    of at least 4 px (B was 4 px across), the grid spans the table (it stopped at 5 m) and the text tells a strike
+    that passes beside B from one that stops short of it (every miss without contact was "stops short")."""
+    from vegym.render.billiards import CLOTH_LINE
+
+    circles, grid, texts = [], [], []
+    circle, line, text = canvas.Panel.circle, canvas.Panel.line, canvas.text
+    monkeypatch.setattr(
+        canvas.Panel,
+        "circle",
+        lambda panel, center, radius, *a: circles.append(panel.length_px(radius)) or circle(panel, center, radius, *a),
+    )
+    monkeypatch.setattr(
+        canvas.Panel,
+        "line",
+        lambda panel, a, b, color, *w: (
+            (color == CLOTH_LINE and grid.append((panel.to_px(*a), panel.to_px(*b), panel)))
+            or line(panel, a, b, color, *w)
+        ),
+    )
+    monkeypatch.setattr(canvas, "text", lambda surface, lines, *a: texts.extend(lines) or text(surface, lines, *a))
+    env = gym.make("vegym/Billiards-v0", render_mode="rgb_array")
+    for seed, action, how in ((13, (1.0, 1.0), "passes beside B"), (13, (0.0, -0.95), "stops short of B")):
+        env.reset(seed=seed)
+        info = env.step(np.array(action, np.float32))[-1]
+        assert not info["contact"]
+        circles.clear(), grid.clear(), texts.clear()
+        env.render()
+        assert min(circles) >= 4 and any(how in line for line in texts)
+        rect = grid[0][2].rect
+        vertical = [(a, b) for a, b, _ in grid if a[0] == b[0]]
+        horizontal = [(a, b) for a, b, _ in grid if a[1] == b[1]]
+        for lines, axis, low, high in ((vertical, 0, rect.left, rect.right), (horizontal, 1, rect.top, rect.bottom)):
+            at = sorted(a[axis] for a, _ in lines)
+            spacing = max(np.diff(at))
+            assert at[0] - low <= spacing and high - at[-1] <= spacing + 1  # from edge to edge
+        assert all(abs(b[1] - a[1]) >= rect.height - 2 for a, b in vertical)  # across the whole table
+
+
 def test_a_state_put_back_restarts_the_renderers_record_from_it() -> None:
     """The frame after a snapshot is put back shows that state alone, not the trail of the steps it undid."""
     env = gym.make("vegym/SteerableWheel-v0", render_mode="rgb_array")

@@ -15,6 +15,13 @@ CLOTH_LINE: canvas.Color = (70, 150, 100)
 BALL_A: canvas.Color = (250, 250, 240)
 BALL_B: canvas.Color = (215, 45, 35)
 TARGET: canvas.Color = (250, 215, 60)
+SMALLEST_BALL = 4.0
+"""Radius (px) under which balls and the target ring are drawn no smaller, so that a zoomed-out table shows them."""
+
+
+def ball(table: canvas.Panel, centre: np.ndarray, radius: float, color: canvas.Color, width: int = 0) -> None:
+    """A ball (or ring, ``width`` px) of ``radius`` (m), drawn at least :data:`SMALLEST_BALL` pixels in radius."""
+    table.circle(centre, max(radius, SMALLEST_BALL / table.scale[0]), color, width)
 
 
 class BilliardsRenderer:
@@ -50,13 +57,15 @@ class BilliardsRenderer:
         surface = canvas.new_surface(WIDTH, HEIGHT)
         a, b, target = (frame(self.state[k][0]) for k in ("ball_a", "ball_b", "target"))
         shown = [a, b, target, *(frame(self.shot[k]) for k in ("rest_a", "rest_b") if self.shot)]
-        table = self._table(surface, np.array(shown))
+        table, (x0, x1, y0, y1) = self._table(surface, np.array(shown))
         surface.fill(CLOTH, table.rect)
-        for mark in np.arange(-5.0, 5.0, 0.25):
-            table.line((mark, -5.0), (mark, 5.0), CLOTH_LINE)
-            table.line((-5.0, mark), (5.0, mark), CLOTH_LINE)
+        grid = canvas.tick_step(max(x1 - x0, y1 - y0), 0.25, 40)
+        for x in np.arange(np.ceil(x0 / grid), x1 / grid) * grid:
+            table.line((x, y0), (x, y1), CLOTH_LINE)
+        for y in np.arange(np.ceil(y0 / grid), y1 / grid) * grid:
+            table.line((x0, y), (x1, y), CLOTH_LINE)
         table.line(a, b, CLOTH_LINE)
-        table.circle(target, p.target_radius, TARGET, 2)
+        ball(table, target, p.target_radius, TARGET, 2)
         table.dot(target, 2, TARGET)
         lines = [
             f"A-B {float(distance[0]):.2f} m   B-target {np.linalg.norm(target - b):.2f} m   e = {p.restitution:g}"
@@ -65,12 +74,12 @@ class BilliardsRenderer:
             self._draw_shot(table, frame, a, b)
             lines.append(self._shot_text())
         else:
-            table.circle(a, p.radius_a, BALL_A)
-            table.circle(b, p.radius_b, BALL_B)
+            ball(table, a, p.radius_a, BALL_A)
+            ball(table, b, p.radius_b, BALL_B)
         canvas.text(surface, lines, (12, 8), 20)
         canvas.text(
             surface,
-            ["top view, line A-B to the right; white: A (struck), red: B, yellow ring: target, grid 0.25 m"],
+            [f"top view, line A-B to the right; white: A (struck), red: B, yellow ring: target, grid {grid:g} m"],
             (20, HEIGHT - 34),
             16,
             canvas.GREY,
@@ -80,37 +89,41 @@ class BilliardsRenderer:
         return canvas.to_array(surface)
 
     @staticmethod
-    def _table(surface: Any, points: np.ndarray) -> canvas.Panel:
-        """The panel showing ``points`` (k, 2) with a 0.25 m margin, at equal scales, filling its rectangle."""
+    def _table(surface: Any, points: np.ndarray) -> tuple[canvas.Panel, tuple[float, float, float, float]]:
+        """The panel showing ``points`` (k, 2) with a 0.25 m margin, at equal scales, filling its rectangle, and
+        its world box (m)."""
         rect = (20, 70, WIDTH - 40, HEIGHT - 110)
         low, high = points.min(axis=0) - 0.25, points.max(axis=0) + 0.25
         centre, span = 0.5 * (low + high), high - low
         span = np.maximum(span, span[::-1] * np.array([rect[2] / rect[3], rect[3] / rect[2]]))
         box = (centre[0] - span[0] / 2, centre[0] + span[0] / 2, centre[1] - span[1] / 2, centre[1] + span[1] / 2)
-        return canvas.Panel(surface, rect, box, equal_aspect=True)
+        return canvas.Panel(surface, rect, box, equal_aspect=True), box
 
     def _draw_shot(self, table: canvas.Panel, frame: Any, a: np.ndarray, b: np.ndarray) -> None:
         p = self.params
         s = self.shot
         rest_a, rest_b = frame(s["rest_a"]), frame(s["rest_b"])
-        table.circle(a, p.radius_a, BALL_A, 1)
-        table.circle(b, p.radius_b, BALL_B, 1)
+        ball(table, a, p.radius_a, BALL_A, 1)
+        ball(table, b, p.radius_b, BALL_B, 1)
         if s["contact"]:
             contact = frame(s["contact_point"])
             table.dashed(a, contact, BALL_A, dashes=10)
             table.dashed(contact, rest_a, BALL_A, dashes=10)
             table.line(b, rest_b, BALL_B, 2)
-            table.circle(contact, p.radius_a, BALL_A, 1)
+            ball(table, contact, p.radius_a, BALL_A, 1)
         else:
             table.dashed(a, rest_a, BALL_A, dashes=10)
-        table.circle(rest_a, p.radius_a, BALL_A)
-        table.circle(rest_b, p.radius_b, BALL_B)
+        ball(table, rest_a, p.radius_a, BALL_A)
+        ball(table, rest_b, p.radius_b, BALL_B)
 
     def _shot_text(self) -> str:
         s = self.shot
         speed = float(np.linalg.norm(s["strike_velocity"]))
         if not s["contact"]:
-            return f"strike {speed:.2f} m/s: A stops short of B   miss {s['miss_distance']:.3f} m"
+            start, heading = self.state["ball_a"][0], s["strike_velocity"] / max(speed, 1e-300)
+            nearest_b = float(np.dot(self.state["ball_b"][0] - start, heading))  # A's run to its point nearest B
+            how = "passes beside B" if float(np.dot(s["rest_a"] - start, heading)) > nearest_b else "stops short of B"
+            return f"strike {speed:.2f} m/s: A {how}   miss {s['miss_distance']:.3f} m"
         verdict = "HIT" if s["is_success"] else "miss"
         return (
             f"strike {speed:.2f} m/s   impact w = {s['closing_speed']:.2f} m/s   "
