@@ -282,6 +282,30 @@ def test_billiards_draws_balls_visible_a_grid_over_the_whole_table_and_says_how_
         assert all(abs(b[1] - a[1]) >= rect.height - 2 for a, b in vertical)  # across the whole table
 
 
+def test_a_steerable_wheel_that_leaves_a_small_arena_is_drawn_inside_the_view(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The view's margin takes in a wheel a step past the border (4% of a 4 m arena was less than the wheel); its
+    footprint is the polyline 6 px wide."""
+    footprints = []
+    polyline = canvas.Panel.polyline
+    monkeypatch.setattr(
+        canvas.Panel,
+        "polyline",
+        lambda panel, points, color, width=2: (
+            (width == 6 and footprints.append((panel.pixels(points), panel.rect)))
+            or polyline(panel, points, color, width)
+        ),
+    )
+    env = gym.make("vegym/SteerableWheel-v0", render_mode="rgb_array", arena_size=4.0, waypoint_margin=0.5)
+    env.reset(seed=0)
+    terminated = False
+    while not terminated:
+        _, _, terminated, _, info = env.step(np.array([1.0, 0.0], np.float32))
+    assert info["reward_terms"]["exit"] < 0.0
+    env.render()
+    ((pixels, rect),) = footprints
+    assert all(rect.collidepoint(x, y) for x, y in pixels)
+
+
 def test_a_state_put_back_restarts_the_renderers_record_from_it() -> None:
     """The frame after a snapshot is put back shows that state alone, not the trail of the steps it undid."""
     env = gym.make("vegym/SteerableWheel-v0", render_mode="rgb_array")

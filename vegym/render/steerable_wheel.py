@@ -54,7 +54,7 @@ class SteerableWheelRenderer:
         p = self.params
         s = self.state
         surface = canvas.new_surface(WIDTH, HEIGHT)
-        pad = 0.04 * p.arena_size
+        pad = max(0.04 * p.arena_size, 1.1 * (p.radius + p.max_speed * p.dt))  # room for a wheel a step outside
         h = p.half_size
         top = canvas.Panel(surface, (20, 70, 560, 560), (-h - pad, h + pad, -h - pad, h + pad), equal_aspect=True)
         self._draw_arena(top)
