@@ -81,6 +81,10 @@ HYPERPARAM_RANGES: dict[str, tuple[float, float, bool]] = {
     "clip_obs": (0.0, math.inf, True),
     "clip_reward": (0.0, math.inf, True),
     "epsilon": (0.0, math.inf, True),
+    "target_kl": (0.0, math.inf, True),  # PPO stops every epoch before its first update at target_kl <= 0
+    "target_update_interval": (1, math.inf, False),  # SAC takes steps % 0 (ZeroDivisionError mid-run)
+    "stats_window_size": (1, math.inf, False),
+    "sde_sample_freq": (-1, math.inf, False),
 }
 """Allowed values of arguments that SB3 takes unchecked (it trains with gamma -0.5): the algorithms' and
 VecNormalize's (``normalize``: ``gamma``, ``clip_obs``, ...), as ``(low, high, low_open)``; ``high`` is allowed

@@ -223,6 +223,27 @@ def test_bad_action_noise_is_rejected(tmp_path: Path, entry: str, message: str) 
         load_config(path, "vegym/Projectile-v0")
 
 
+@pytest.mark.parametrize(
+    ("algo", "entry", "message"),
+    [
+        ("ppo", "  target_kl: -1\n", "target_kl=-1.0 is outside (0, inf)"),  # PPO trained nothing, silently
+        ("sac", "  target_update_interval: 0\n", "target_update_interval=0 is outside [1, inf)"),  # mid-run crash
+        ("sac", "  target_update_interval: -3\n", "target_update_interval=-3 is outside [1, inf)"),
+        ("sac", "  stats_window_size: 0\n", "stats_window_size=0 is outside [1, inf)"),
+        ("ppo", "  sde_sample_freq: -5\n", "sde_sample_freq=-5 is outside [-1, inf)"),
+    ],
+)
+def test_settings_sb3_takes_unchecked_are_held_to_their_ranges(
+    tmp_path: Path, algo: str, entry: str, message: str
+) -> None:
+    path = write_config(tmp_path, "vegym/Projectile-v0:\n  n_timesteps: 1000\n" + entry, f"{algo}.yml")
+    with pytest.raises(ConfigError, match=re.escape(message)):
+        load_config(path, "vegym/Projectile-v0")
+    load_config(
+        write_config(tmp_path, "vegym/Projectile-v0:\n  n_timesteps: 1000\n", f"{algo}.yml"), "vegym/Projectile-v0"
+    )
+
+
 def test_a_numeric_string_for_a_number_or_string_setting_is_the_number(tmp_path: Path) -> None:
     path = write_config(tmp_path, "vegym/Projectile-v0:\n  n_timesteps: 1000\n  ent_coef: '0.1'\n", "sac.yml")
     ent_coef = load_config(path, "vegym/Projectile-v0").hyperparams["ent_coef"]  # float | str ("auto_0.1")
