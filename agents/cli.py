@@ -33,6 +33,8 @@ from agents.evaluation import (
 from vegym import env_name
 
 console = Console(highlight=False, width=None if sys.stdout.isatty() else 160)
+RETRAIN_SEEDS, RETRAIN_JOBS = [0, 1, 2], 2
+"""``vegym compare --retrain``'s training seeds and seeds trained at once, unless --seeds and --jobs say."""
 
 
 def say(message: str, style: str | None = None) -> None:
@@ -262,6 +264,9 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
 
 def cmd_compare(args: argparse.Namespace) -> int:
     """Compare agents on every env; write the report files."""
+    retraining = [f"--{name}" for name in ("seeds", "jobs", "timesteps") if getattr(args, name) is not None]
+    if retraining and not args.retrain:
+        raise ValueError(f"{', '.join(retraining)} set how --retrain trains; without --retrain nothing is trained")
     import torch
 
     from agents.compare import TABLE_COLUMNS, compare, table_rows
@@ -277,8 +282,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
         models_dir=Path(args.models),
         algos=args.algos,
         retrain_agents=args.retrain,
-        seeds=args.seeds,
-        jobs=args.jobs,
+        seeds=args.seeds or RETRAIN_SEEDS,
+        jobs=args.jobs or RETRAIN_JOBS,
         timesteps=args.timesteps,
         progress_bar=not args.no_progress,
         log=say,
@@ -453,8 +458,8 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument("--algos", nargs="+", choices=list(ALGOS), default=list(ALGOS), help="learned algorithms to include")
     p.add_argument("--retrain", action="store_true", help="retrain the learned agents from the committed configs first")
-    p.add_argument("--seeds", type=_seed_list, default=[0, 1, 2], help="with --retrain: training seeds (default 0,1,2)")
-    p.add_argument("--jobs", type=_positive, default=2, help="with --retrain: seeds trained at once (default 2)")
+    p.add_argument("--seeds", type=_seed_list, help="with --retrain: training seeds (default 0,1,2)")
+    p.add_argument("--jobs", type=_positive, help="with --retrain: seeds trained at once (default 2)")
     p.add_argument("--timesteps", type=_positive, help="with --retrain: override every config's n_timesteps")
     p.add_argument("--no-progress", action="store_true", help="no progress bar while retraining")
     p.add_argument("--threads", type=_positive, default=1, help=threads_help)

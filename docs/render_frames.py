@@ -51,6 +51,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path(__file__).parent, help="directory of the pictures")
     args = parser.parse_args()
+    args.out.mkdir(parents=True, exist_ok=True)
     for env_id in vegym.ENVS:
         if env_id != "vegym/AircraftGusty-v0":
             frame = render_frame(env_id)

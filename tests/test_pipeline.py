@@ -761,6 +761,16 @@ def test_a_ctrl_c_while_the_seeds_start_reports_them_not_started_and_says_how_to
 REQUIRED = {"env_id", "agent", "episodes", "mean_return", "std_return", "success_rate", "normalized_score"}
 
 
+@pytest.mark.parametrize("given", [["--seeds", "0,1"], ["--jobs", "1"], ["--timesteps", "100"]])
+def test_compare_refuses_retraining_settings_without_retrain(
+    tmp_path: Path, given: list[str], capsys: pytest.CaptureFixture
+) -> None:
+    """They were ignored: compare evaluated the three shipped seeds after --seeds 0,1 and exited 0."""
+    out = tmp_path / "out"
+    assert main(["compare", "--envs", "Projectile-v0", "--episodes", "1", "--out", str(out), *given]) == 2
+    assert f"{given[0]} set how --retrain trains" in capsys.readouterr().out and not out.exists()
+
+
 def test_compare_retrains_on_a_tiny_budget_and_writes_every_file(tmp_path: Path) -> None:
     out, models = tmp_path / "out", tmp_path / "models"
     args = ["compare", "--envs", "BouncingBall-v0", "Projectile-v0", "--episodes", "2", "--out", str(out)]
