@@ -19,6 +19,20 @@ from vegym.render import canvas
 from vegym.render.gear_train import MOST_TEETH, TOOTH_PITCH, gear_outline
 
 
+def record_calls(monkeypatch: pytest.MonkeyPatch, owner: Any, name: str) -> list[tuple]:
+    """The positional arguments of every call of ``owner.name`` (a ``canvas`` function, or a ``Panel`` method with
+    its panel first) from now on in the test; the calls still draw."""
+    calls: list[tuple] = []
+    draw = getattr(owner, name)
+
+    def recording(*args: Any, **kwargs: Any) -> Any:
+        calls.append(args)
+        return draw(*args, **kwargs)
+
+    monkeypatch.setattr(owner, name, recording)
+    return calls
+
+
 def test_tick_step_keeps_the_finest_spacing_when_few_and_steps_1_2_5_otherwise() -> None:
     assert canvas.tick_step(20.0, 5.0, 20) == 5.0
     assert canvas.tick_step(3.0, 0.5, 12) == 0.5
@@ -160,26 +174,21 @@ def test_projectile_views_take_in_every_shot_s_whole_flight_and_landing(
     """Random shots climb up to 66 m and land up to 110 m away: every drawn path point and landing lies inside its
     panel (half of such shots left a fixed view; ProjectileAdjust's landings beyond its panel are rings at its
     edge)."""
-    drawn: list[tuple[list[list[int]], Any]] = []
-    for name in ("polyline", "dot", "circle"):
-        method = getattr(canvas.Panel, name)
-
-        def recording(panel: canvas.Panel, points: Any, *args: Any, method: Any = method) -> None:
-            drawn.append((panel.pixels(np.reshape(points, (-1, 2))), panel.rect.inflate(2, 2)))
-            method(panel, points, *args)
-
-        monkeypatch.setattr(canvas.Panel, name, recording)
+    drawn = [record_calls(monkeypatch, canvas.Panel, name) for name in ("polyline", "dot", "circle")]
     env = gym.make(env_id, render_mode="rgb_array")
     env.action_space.seed(2)
     for seed in range(20):
         env.reset(seed=seed)
         for _ in range(2 if env_id.endswith("Adjust-v0") else 1):
             env.step(env.action_space.sample())
-        drawn.clear()
+        for calls in drawn:
+            calls.clear()
         env.render()
-        assert len(drawn) >= 3
-        for pixels, rect in drawn:
-            assert all(rect.collidepoint(x, y) for x, y in pixels), (seed, rect)
+        shapes = [(panel, np.reshape(points, (-1, 2))) for calls in drawn for panel, points, *_ in calls]
+        assert len(shapes) >= 3
+        for panel, points in shapes:
+            rect = panel.rect.inflate(2, 2)
+            assert all(rect.collidepoint(x, y) for x, y in panel.pixels(points)), (seed, rect)
 
 
 def test_aircraft_is_drawn_nose_first_along_its_heading_and_a_horizontal_wind_as_an_arrow(
@@ -188,14 +197,7 @@ def test_aircraft_is_drawn_nose_first_along_its_heading_and_a_horizontal_wind_as
     """The marker is an aircraft whose nose (its outline's point farthest from the position) lies along the
     heading, seen from above (screen right -x, up +z); a horizontal wind gets an arrow along it (the
     near-equilateral triangle drawn before read as pointing elsewhere, and no view showed the wind)."""
-    polygons, arrows = [], []
-    polygon, arrow = canvas.Panel.polygon, canvas.Panel.arrow
-    monkeypatch.setattr(
-        canvas.Panel, "polygon", lambda panel, points, *a: polygons.append(points) or polygon(panel, points, *a)
-    )
-    monkeypatch.setattr(
-        canvas.Panel, "arrow", lambda panel, tail, vector, *a: arrows.append(vector) or arrow(panel, tail, vector, *a)
-    )
+    polygons, arrows = (record_calls(monkeypatch, canvas.Panel, name) for name in ("polygon", "arrow"))
     for wind in ((0.0, 0.0), (30.0, -20.0)):
         env = gym.make("vegym/Aircraft-v0", render_mode="rgb_array", wind_x=wind[0], wind_z=wind[1])
         for seed in range(3):
@@ -206,10 +208,10 @@ def test_aircraft_is_drawn_nose_first_along_its_heading_and_a_horizontal_wind_as
             env.render()
             state = env.unwrapped.state
             heading, (x, _, z) = float(state["heading"][0]), state["position"][0]
-            (outline,) = polygons
+            ((_, outline, *_),) = polygons
             nose = outline[np.argmax(np.linalg.norm(outline - (-x, z), axis=1))] - (-x, z)
             assert math.atan2(nose[1], nose[0]) == pytest.approx(math.atan2(math.cos(heading), -math.sin(heading)))
-            winds = [vector for vector in arrows if not np.allclose(vector[0], 0.0)]  # +z's arrow is vertical
+            winds = [vector for _, _, vector, *_ in arrows if not np.allclose(vector[0], 0.0)]  # +z's is vertical
             if wind == (0.0, 0.0):
                 assert winds == []
             else:
@@ -220,23 +222,17 @@ def test_aircraft_is_drawn_nose_first_along_its_heading_and_a_horizontal_wind_as
 def test_billiards_frame_after_the_strike_takes_in_both_rest_points(monkeypatch: pytest.MonkeyPatch) -> None:
     """Every ball circle drawn (starts, contact and rest points) has its centre inside the table's rectangle,
     for random strikes, which send the balls far."""
-    centres: list[tuple[tuple[int, int], Any]] = []
-    circle = canvas.Panel.circle
-
-    def recording_circle(panel: canvas.Panel, center, *args, **kwargs) -> None:  # noqa: ANN001, ANN003, ANN002
-        centres.append((panel.to_px(*center), panel.rect.copy()))
-        circle(panel, center, *args, **kwargs)
-
-    monkeypatch.setattr(canvas.Panel, "circle", recording_circle)
+    circles = record_calls(monkeypatch, canvas.Panel, "circle")
     env = gym.make("vegym/Billiards-v0", render_mode="rgb_array")
     env.action_space.seed(1)
     for seed in range(30):
         env.reset(seed=seed)
         env.step(env.action_space.sample())
-        centres.clear()
+        circles.clear()
         env.render()
-        assert len(centres) >= 4
-        for (x, y), rect in centres:
+        assert len(circles) >= 4
+        for panel, center, *_ in circles:
+            (x, y), rect = panel.to_px(*center), panel.rect
             assert rect.collidepoint(x, y), (seed, (x, y), rect)
 
 
@@ -248,35 +244,26 @@ def test_billiards_draws_balls_visible_a_grid_over_the_whole_table_and_says_how_
     that passes beside B from one that stops short of it (every miss without contact was "stops short")."""
     from vegym.render.billiards import CLOTH_LINE
 
-    circles, grid, texts = [], [], []
-    circle, line, text = canvas.Panel.circle, canvas.Panel.line, canvas.text
-    monkeypatch.setattr(
-        canvas.Panel,
-        "circle",
-        lambda panel, center, radius, *a: circles.append(panel.length_px(radius)) or circle(panel, center, radius, *a),
+    circles, lines, texts = (
+        record_calls(monkeypatch, canvas.Panel, "circle"),
+        record_calls(monkeypatch, canvas.Panel, "line"),
+        record_calls(monkeypatch, canvas, "text"),
     )
-    monkeypatch.setattr(
-        canvas.Panel,
-        "line",
-        lambda panel, a, b, color, *w: (
-            (color == CLOTH_LINE and grid.append((panel.to_px(*a), panel.to_px(*b), panel)))
-            or line(panel, a, b, color, *w)
-        ),
-    )
-    monkeypatch.setattr(canvas, "text", lambda surface, lines, *a: texts.extend(lines) or text(surface, lines, *a))
     env = gym.make("vegym/Billiards-v0", render_mode="rgb_array")
     for seed, action, how in ((13, (1.0, 1.0), "passes beside B"), (13, (0.0, -0.95), "stops short of B")):
         env.reset(seed=seed)
         info = env.step(np.array(action, np.float32))[-1]
         assert not info["contact"]
-        circles.clear(), grid.clear(), texts.clear()
+        circles.clear(), lines.clear(), texts.clear()
         env.render()
-        assert min(circles) >= 4 and any(how in line for line in texts)
+        assert min(panel.length_px(radius) for panel, _, radius, *_ in circles) >= 4
+        assert any(how in line for _, shown, *_ in texts for line in shown)
+        grid = [(panel.to_px(*a), panel.to_px(*b), panel) for panel, a, b, color, *_ in lines if color == CLOTH_LINE]
         rect = grid[0][2].rect
         vertical = [(a, b) for a, b, _ in grid if a[0] == b[0]]
         horizontal = [(a, b) for a, b, _ in grid if a[1] == b[1]]
-        for lines, axis, low, high in ((vertical, 0, rect.left, rect.right), (horizontal, 1, rect.top, rect.bottom)):
-            at = sorted(a[axis] for a, _ in lines)
+        for drawn, axis, low, high in ((vertical, 0, rect.left, rect.right), (horizontal, 1, rect.top, rect.bottom)):
+            at = sorted(a[axis] for a, _ in drawn)
             spacing = max(np.diff(at))
             assert at[0] - low <= spacing and high - at[-1] <= spacing + 1  # from edge to edge
         assert all(abs(b[1] - a[1]) >= rect.height - 2 for a, b in vertical)  # across the whole table
@@ -285,25 +272,17 @@ def test_billiards_draws_balls_visible_a_grid_over_the_whole_table_and_says_how_
 def test_a_steerable_wheel_that_leaves_a_small_arena_is_drawn_inside_the_view(monkeypatch: pytest.MonkeyPatch) -> None:
     """The view's margin takes in a wheel a step past the border (4% of a 4 m arena was less than the wheel); its
     footprint is the polyline 6 px wide."""
-    footprints = []
-    polyline = canvas.Panel.polyline
-    monkeypatch.setattr(
-        canvas.Panel,
-        "polyline",
-        lambda panel, points, color, width=2: (
-            (width == 6 and footprints.append((panel.pixels(points), panel.rect)))
-            or polyline(panel, points, color, width)
-        ),
-    )
+    polylines = record_calls(monkeypatch, canvas.Panel, "polyline")
     env = gym.make("vegym/SteerableWheel-v0", render_mode="rgb_array", arena_size=4.0, waypoint_margin=0.5)
     env.reset(seed=0)
     terminated = False
     while not terminated:
         _, _, terminated, _, info = env.step(np.array([1.0, 0.0], np.float32))
     assert info["reward_terms"]["exit"] < 0.0
+    polylines.clear()
     env.render()
-    ((pixels, rect),) = footprints
-    assert all(rect.collidepoint(x, y) for x, y in pixels)
+    ((panel, footprint),) = [(panel, points) for panel, points, _, *width in polylines if width == [6]]
+    assert all(panel.rect.collidepoint(x, y) for x, y in panel.pixels(footprint))
 
 
 def test_a_state_put_back_restarts_the_renderers_record_from_it() -> None:
@@ -367,35 +346,30 @@ def test_the_bouncing_ball_is_drawn_to_the_scale_of_the_height_axis(monkeypatch:
 def test_bouncing_ball_marks_its_shown_targets_legibly_and_none_once_at_rest(monkeypatch: pytest.MonkeyPatch) -> None:
     """The shown targets' marks take a share of the time axis, so they stay wide in long flights (fixed 0.2 s marks
     were 2-5 px at gravity 1.6), each at its height and inside the panel; a ball at rest shows none and says so."""
-    marks, texts = [], []
-    line, text = canvas.Panel.line, canvas.text
-    monkeypatch.setattr(
-        canvas.Panel,
-        "line",
-        lambda panel, a, b, color, width=1: (
-            (color in (canvas.RED, canvas.ORANGE) and marks.append((panel, a, b))) or line(panel, a, b, color, width)
-        ),
-    )
-    monkeypatch.setattr(canvas, "text", lambda surface, lines, *a: texts.extend(lines) or text(surface, lines, *a))
+    lines, texts = record_calls(monkeypatch, canvas.Panel, "line"), record_calls(monkeypatch, canvas, "text")
+
+    def marks() -> list[tuple[canvas.Panel, Any, Any]]:
+        return [(panel, a, b) for panel, a, b, color, *_ in lines if color in (canvas.RED, canvas.ORANGE)]
+
     env = gym.make("vegym/BouncingBall-v0", render_mode="rgb_array", gravity=1.6)
     env.reset(seed=3)
     for _ in range(10):
         env.step(np.array([0.5], np.float32))
-        marks.clear()
+        lines.clear()
         env.render()
         state = env.unwrapped.state
-        ahead = [(panel, a, b) for panel, a, b in marks if a[0] >= state["time"][0]]  # not the past targets' dashes
+        ahead = [(panel, a, b) for panel, a, b in marks() if a[0] >= state["time"][0]]  # not the past targets' dashes
         assert [a[1] for _, a, _ in ahead] == list(state["targets"][0])
         for panel, a, b in ahead:
             (x0, _), (x1, y1) = panel.to_px(*a), panel.to_px(*b)
             assert x1 - x0 >= 30 and panel.rect.collidepoint(x1, y1)
     env.reset(seed=1)
-    texts.clear()
-    marks.clear()
     env.step(np.array([-1.0], np.float32))  # e = 0: at rest
+    texts.clear()
+    lines.clear()
     env.render()
-    assert not [a for _, a, _ in marks if a[1] in env.unwrapped.state["targets"][0]]
-    assert any("at rest" in line for line in texts)
+    assert not [a for _, a, _ in marks() if a[1] in env.unwrapped.state["targets"][0]]
+    assert any("at rest" in line for _, shown, *_ in texts for line in shown)
 
 
 def test_a_human_window_shows_a_frame_at_least_every_second(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -419,16 +393,12 @@ def test_a_human_window_shows_a_frame_at_least_every_second(monkeypatch: pytest.
 
 def test_small_gears_are_drawn_with_teeth_in_proportion(monkeypatch: pytest.MonkeyPatch) -> None:
     """Teeth 3 mm deep on 2-3 mm gears crossed their centres: star-shaped blades instead of gears."""
-    outlines = []
-    polygon = canvas.Panel.polygon
-    monkeypatch.setattr(
-        canvas.Panel, "polygon", lambda panel, points, *a: outlines.append(points) or polygon(panel, points, *a)
-    )
+    polygons = record_calls(monkeypatch, canvas.Panel, "polygon")
     env = gym.make("vegym/GearTrain-v0", render_mode="rgb_array", radius_min=0.002, radius_max=0.003)
     env.reset(seed=0)
     env.render()
-    assert outlines
-    for points in outlines:
+    assert polygons
+    for _, points, *_ in polygons:
         distance = np.linalg.norm(points - points.mean(axis=0), axis=1)
         assert distance.min() > 0.8 * distance.max()
 
@@ -438,13 +408,7 @@ def test_gear_train_draws_the_target_of_the_error_it_reports_and_a_next_one_apar
 ) -> None:
     """The green target is the one of the step drawn (info's ``target_angle``, whose error the text reports); after
     a step at which the target changes, the new one is drawn too, in black (it drew only the new one, in green)."""
-    dots: list[tuple[Any, int, Any]] = []
-    dot = canvas.Panel.dot
-    monkeypatch.setattr(
-        canvas.Panel,
-        "dot",
-        lambda panel, *args: dots.append(args) or dot(panel, *args),  # (centre, pixels, colour)
-    )
+    dots = record_calls(monkeypatch, canvas.Panel, "dot")  # (panel, centre, pixels, colour)
     env = gym.make("vegym/GearTrain-v0", render_mode="rgb_array")
     env.reset(seed=3)
     task, interval = env.unwrapped.task, env.unwrapped.params.interval_steps
@@ -452,8 +416,8 @@ def test_gear_train_draws_the_target_of_the_error_it_reports_and_a_next_one_apar
         info = env.step(np.array([0.4], np.float32))[-1]
         dots.clear()
         env.render()
-        output_x = [centre[0] for centre, pixels, _ in dots if pixels == 3][-1]  # the gears' centres, output last
-        targets = {colour: math.atan2(y, x - output_x) for (x, y), pixels, colour in dots if pixels == 5}
+        output_x = [centre[0] for _, centre, pixels, _ in dots if pixels == 3][-1]  # gears' centres, output last
+        targets = {colour: math.atan2(y, x - output_x) for _, (x, y), pixels, colour in dots if pixels == 5}
         assert math.sin(targets[canvas.GREEN] - info["target_angle"]) == pytest.approx(0.0, abs=1e-9)
         assert math.cos(targets[canvas.GREEN] - info["target_angle"]) > 0.0
         upcoming = float(task.target(env.unwrapped.state["key"], env.unwrapped.state["step"])[0])
