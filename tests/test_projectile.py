@@ -125,6 +125,8 @@ def test_targets_beyond_the_reachable_envelope_are_rejected() -> None:
         ({"target_distance_min": 61.0}, r"target_distance_min=61.0 is outside .* target_distance_max=60.0\]"),
         ({"speed_min": 35.0}, r"speed_min=35.0 is outside the allowed range \[0, speed_max=30.0\]"),
         ({"launch_height_max": 0.5}, r"launch_height_max=0.5 is outside .*launch_height_min=1.0"),
+        ({"wind_speed_max": 8.0}, r"target_distance_max=60.0 is outside .* wind_speed_max = 30.0 - 8.0 m/s"),
+        ({"gravity": 30.0}, r"target_distance_max=60.0 is outside .* under gravity=30.0 m/s\^2"),
     ],
 )
 def test_inconsistent_ranges_raise_value_error_naming_them(kwargs: dict, message: str) -> None:

@@ -63,7 +63,10 @@ class ProjectileEnvParams(Params):
             raise invalid(
                 "target_distance_max",
                 self.target_distance_max,
-                f"(0, reachable_distance={self.reachable_distance:.4g}]",
+                f"(0, reachable_distance={self.reachable_distance:.4g}], the range at speed_max - wind_speed_max = "
+                f"{self.speed_max} - {self.wind_speed_max} m/s from launch_height_min - radius = "
+                f"{self.launch_height_min} - {self.radius} m "
+                f"under gravity={self.gravity} m/s^2",
             )
 
     @property
