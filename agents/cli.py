@@ -116,7 +116,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     """Train an SB3 agent from a config, on one seed or on several in parallel."""
     import torch
 
-    from agents.training import CONFIG_FILE, resume_config, train
+    from agents.training import CONFIG_FILE, check_run_dir, resume_config, train
 
     env_id = vegym.resolve_env_id(args.env)
     out = Path(args.out) if args.out else Path("runs") / env_name(env_id) / args.algo
@@ -135,6 +135,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     planned, step = f"{config.n_timesteps} steps", config.collection_steps
     if step and config.n_timesteps % step and not args.resume:
         planned += f" ({math.ceil(config.n_timesteps / step) * step}: SB3 collects {step} steps at a time)"
+    check_run_dir(out, args.resume)  # before the line below, which would announce a run that does not start
     say(f"training {config.algo} on {config.env_id} for {planned} into {out}")
     result = train(config, out, resume=args.resume, progress_bar=not args.no_progress, command=command)
     if result.interrupted:

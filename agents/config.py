@@ -28,6 +28,7 @@ import torch
 import yaml
 from stable_baselines3 import PPO, SAC, TD3
 from stable_baselines3.common.base_class import BaseAlgorithm
+from stable_baselines3.common.buffers import ReplayBuffer, RolloutBuffer
 from stable_baselines3.common.noise import ActionNoise, NormalActionNoise, OrnsteinUhlenbeckActionNoise
 from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from stable_baselines3.common.vec_env import VecNormalize
@@ -447,6 +448,7 @@ def _check(c: TrainConfig, where: str) -> None:
         for key, value in c.normalize.items():
             _check_range(key, value, value, f"{where}: normalize")
     _check_batches(c, where)
+    _check_late_settings(c, where)
     policy_hints = constructor_hints(c.algo_class.policy_aliases[c.policy])
     for key, value in c.policy_kwargs.items():
         if key not in policy_hints or key in ("self", "observation_space", "action_space", "lr_schedule"):
@@ -493,6 +495,56 @@ def _check_batches(c: TrainConfig, where: str) -> None:
             raise ConfigError(f"{where}: train_freq={train_freq!r} must train every 1 or more {unit}s")
         if unit == "episode" and c.n_envs > 1:
             raise ConfigError(f"{where}: train_freq={train_freq!r} counts episodes, which needs n_envs: 1")
+
+
+AUTO = "auto"
+"""SAC's learned ``ent_coef`` (``auto`` or ``auto_<start>``) and its ``target_entropy`` from the action size."""
+
+BUFFER_ARGS_SET_BY_SB3 = frozenset(
+    {"self", "buffer_size", "observation_space", "action_space", "device", "n_envs", "optimize_memory_usage", "gamma",
+     "gae_lambda"}
+)  # fmt: skip
+"""Buffer constructor arguments the algorithm passes itself, which ``*_buffer_kwargs`` cannot set."""
+
+
+def _check_late_settings(c: TrainConfig, where: str) -> None:
+    """ConfigError for settings SB3 reads only once it builds or trains the model, where a wrong one fails with
+    a bare error or trains nothing: SAC's ``ent_coef`` and ``target_entropy`` strings, ``device``, an off-policy
+    ``gradient_steps`` of 0 (no update ever), the keys of ``rollout_buffer_kwargs`` and ``replay_buffer_kwargs``,
+    and ``optimize_memory_usage``, which SB3's replay buffers refuse beside timeout handling and n-step returns."""
+    ent_coef, target_entropy = c.hyperparams.get("ent_coef"), c.hyperparams.get("target_entropy")
+    if isinstance(ent_coef, str) and ent_coef != AUTO:
+        start = _number(ent_coef.removeprefix(f"{AUTO}_")) if ent_coef.startswith(f"{AUTO}_") else None
+        if start is None or not start > 0.0:
+            allowed = f"a number >= 0, {AUTO!r} or '{AUTO}_<start>' with a start above 0 (e.g. {AUTO}_0.1)"
+            raise ConfigError(f"{where}: ent_coef={ent_coef!r}; give {allowed}")
+    if isinstance(target_entropy, str) and target_entropy != AUTO:
+        raise ConfigError(f"{where}: target_entropy={target_entropy!r}; give a number or {AUTO!r}")
+    if "device" in c.hyperparams:
+        try:
+            torch.device(c.hyperparams["device"])
+        except (RuntimeError, TypeError) as exc:
+            raise ConfigError(f"{where}: device={c.hyperparams['device']!r}: {exc}") from None
+    gradient_steps = c.hyperparams.get("gradient_steps")
+    if gradient_steps is not None and not (gradient_steps == -1 or gradient_steps >= 1):
+        raise ConfigError(f"{where}: gradient_steps={gradient_steps!r}; give -1 (one per env step) or 1 or more")
+    off_policy = issubclass(c.algo_class, OffPolicyAlgorithm)
+    key, buffer = ("replay_buffer_kwargs", ReplayBuffer) if off_policy else ("rollout_buffer_kwargs", RolloutBuffer)
+    buffer_kwargs = c.hyperparams.get(key) or {}
+    hints = {k: v for k, v in constructor_hints(buffer).items() if k not in BUFFER_ARGS_SET_BY_SB3}
+    for name, value in buffer_kwargs.items():
+        if name not in hints:
+            allowed = ", ".join(hints) or f"none: {c.algo} sets every argument of {buffer.__name__} itself"
+            raise ConfigError(f"{where}: {key}: unknown key {name!r}; allowed: {allowed}")
+        coerce(value, hints[name], f"{where}: {key}: {name}")
+    if off_policy and _setting(c, "optimize_memory_usage"):
+        if _setting(c, "n_steps") > 1:
+            raise ConfigError(f"{where}: optimize_memory_usage=True does not work with n-step returns (n_steps > 1)")
+        if buffer_kwargs.get("handle_timeout_termination", True):
+            raise ConfigError(
+                f"{where}: optimize_memory_usage=True needs replay_buffer_kwargs: "
+                '"dict(handle_timeout_termination=False)" (SB3 cannot combine the two)'
+            )
 
 
 def _check_range(key: str, number: Any, value: Any, where: str) -> None:

@@ -238,6 +238,20 @@ def _progress_bar_available() -> bool:
     return all(importlib.util.find_spec(m) is not None for m in ("tqdm", "rich"))
 
 
+def check_run_dir(out: Path, resume: bool) -> Path | None:
+    """The model a run in ``out`` would start from (None for a fresh run); ValueError if ``out`` does not suit
+    the run: a fresh one into a directory holding a run (its own or ``seed_<k>/`` ones), or a resumed one into
+    a directory holding no model."""
+    source = latest_model(out) if out.exists() else None
+    if resume and source is None:
+        raise ValueError(f"--resume: {out} holds no model or checkpoint to resume from")
+    if not resume and source is not None:
+        raise ValueError(f"{out} already holds a training run; pass --resume or choose another --out")
+    if not resume and any(out.glob(f"{SEED_DIR_PREFIX}*/{MODEL_FILE}")):
+        raise ValueError(f"{out} holds seed_<k>/ runs; train one seed into it with --seeds K, or choose another --out")
+    return source
+
+
 def train(
     config: TrainConfig,
     out: Path,
@@ -258,13 +272,7 @@ def train(
     """
     out = Path(out)
     start = time.perf_counter()
-    source = latest_model(out) if out.exists() else None
-    if resume and source is None:
-        raise ValueError(f"--resume: {out} holds no model or checkpoint to resume from")
-    if not resume and source is not None:
-        raise ValueError(f"{out} already holds a training run; pass --resume or choose another --out")
-    if not resume and any(out.glob(f"{SEED_DIR_PREFIX}*/{MODEL_FILE}")):
-        raise ValueError(f"{out} holds seed_<k>/ runs; train one seed into it with --seeds K, or choose another --out")
+    source = check_run_dir(out, resume)
     out.mkdir(parents=True, exist_ok=True)
     normalize = config.normalize_kwargs()
     if source is not None:

@@ -244,6 +244,58 @@ def test_settings_sb3_takes_unchecked_are_held_to_their_ranges(
     )
 
 
+LATE_SETTINGS_REFUSED = [
+    ("sac", "  target_entropy: autoo\n", "target_entropy='autoo'; give a number or 'auto'"),  # bare float error
+    ("sac", "  ent_coef: autox\n", "ent_coef='autox'; give a number >= 0, 'auto' or 'auto_<start>'"),  # read as auto
+    ("sac", "  ent_coef: auto_0\n", "ent_coef='auto_0'"),  # SB3 asserts
+    ("sac", "  ent_coef: often\n", "ent_coef='often'"),
+    ("ppo", "  device: gpu\n", "device='gpu': "),
+    ("sac", "  gradient_steps: 0\n", "gradient_steps=0; give -1 (one per env step) or 1 or more"),  # no update ever
+    ("sac", "  optimize_memory_usage: true\n", "optimize_memory_usage=True needs replay_buffer_kwargs"),
+    ("sac", "  replay_buffer_kwargs: {handle_timeout: false}\n", "replay_buffer_kwargs: unknown key 'handle_timeout'"),
+    ("sac", "  replay_buffer_kwargs: {handle_timeout_termination: 0}\n", "handle_timeout_termination: 0 is not a bool"),
+    ("td3", "  replay_buffer_kwargs: {buffer_size: 10}\n", "replay_buffer_kwargs: unknown key 'buffer_size'"),
+    ("ppo", "  rollout_buffer_kwargs: {gamma: 0.5}\n", "unknown key 'gamma'; allowed: none: ppo sets every"),
+    (
+        "sac",
+        "  n_steps: 3\n  optimize_memory_usage: true\n  replay_buffer_kwargs: {handle_timeout_termination: false}\n",
+        "optimize_memory_usage=True does not work with n-step returns",
+    ),
+]
+
+
+@pytest.mark.parametrize(("algo", "entry", "message"), LATE_SETTINGS_REFUSED)
+def test_settings_sb3_reads_only_when_it_builds_or_trains_are_refused_at_load(
+    tmp_path: Path, algo: str, entry: str, message: str
+) -> None:
+    """Without the check these fail after ``vegym train`` has started, with a bare error (``could not convert
+    string to float``, SB3's assertion or replay-buffer message), or train on with a wrong setting."""
+    path = write_config(tmp_path, "vegym/Projectile-v0:\n  n_timesteps: 1000\n" + entry, f"{algo}.yml")
+    with pytest.raises(ConfigError, match=re.escape(message)) as caught:
+        load_config(path, "vegym/Projectile-v0")
+    assert str(path) in str(caught.value)
+
+
+@pytest.mark.parametrize(
+    ("algo", "entry"),
+    [
+        ("sac", "  ent_coef: auto_0.1\n  target_entropy: -2.5\n  device: cpu\n  gradient_steps: -1\n"),
+        ("sac", "  ent_coef: 0.05\n  target_entropy: auto\n"),
+        ("sac", "  optimize_memory_usage: true\n  replay_buffer_kwargs: dict(handle_timeout_termination=False)\n"),
+        ("td3", "  gradient_steps: 2\n  replay_buffer_kwargs: {handle_timeout_termination: true}\n"),
+        ("ppo", "  device: cpu\n  rollout_buffer_kwargs: {}\n"),
+    ],
+)
+def test_the_late_settings_allowed_at_load_build_a_model(tmp_path: Path, algo: str, entry: str) -> None:
+    path = write_config(tmp_path, "vegym/Projectile-v0:\n  n_timesteps: 1000\n" + entry, f"{algo}.yml")
+    config = load_config(path, "vegym/Projectile-v0")
+    env = make_env(config, seed=0)
+    try:
+        assert isinstance(build_model(config, env), ALGOS[algo])
+    finally:
+        env.close()
+
+
 def test_a_numeric_string_for_a_number_or_string_setting_is_the_number(tmp_path: Path) -> None:
     path = write_config(tmp_path, "vegym/Projectile-v0:\n  n_timesteps: 1000\n  ent_coef: '0.1'\n", "sac.yml")
     ent_coef = load_config(path, "vegym/Projectile-v0").hyperparams["ent_coef"]  # float | str ("auto_0.1")
@@ -532,6 +584,7 @@ def test_train_cli_tiny_budget_produces_a_loadable_model(tmp_path: Path) -> None
     assert action.shape == (3,)
     again = run_cli(*args)
     assert again.returncode == 2 and "already holds a training run" in again.stdout
+    assert "training ppo" not in again.stdout  # no run announced that does not start
     steps = saved_timesteps(out / "model.zip")
     past = run_cli(*args[:5], "--out", str(out), "--resume", "--timesteps", "128", "--no-progress")
     assert past.returncode == 0 and f"nothing to train: {out / 'model.zip'} already holds {steps} steps" in past.stdout
