@@ -20,7 +20,9 @@ machines. Workers, in one process or in many on many machines, share the study t
 
 from __future__ import annotations
 
+import contextlib
 import fcntl
+import logging
 import multiprocessing as mp
 import os
 import signal
@@ -29,7 +31,7 @@ import tempfile
 import time
 import warnings
 import zlib
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -398,8 +400,11 @@ def run_worker(
     score = Scorer(settings.env_id, settings.eval_episodes, base.env_kwargs)
     lock = StudyLock(settings.storage, settings.study)
     ran = failures = 0
+    running = -1
 
     def unlocked_objective(trial: optuna.Trial) -> float:
+        nonlocal running
+        running = trial.number
         study._storage.record_heartbeat(trial._trial_id)  # Optuna's heartbeat thread beats whenever it gets to run
         trial.set_user_attr(STARTED, trial.number)
         lock.release()  # the trial exists now, marked: other workers count it and may go on
@@ -430,8 +435,14 @@ def run_worker(
                     lock.release()  # the last trials run elsewhere: wait for them to finish or to go stale
                     time.sleep(min(settings.heartbeat, 5))
                     continue
+                running = -1
                 try:
-                    study.optimize(unlocked_objective, n_trials=1, catch=TRIAL_ERRORS, callbacks=[report])
+                    with _interrupted_trial_unlogged():
+                        study.optimize(unlocked_objective, n_trials=1, catch=TRIAL_ERRORS, callbacks=[report])
+                except KeyboardInterrupt:
+                    if running >= 0:
+                        log(f"{name}: trial {running} interrupted (failed: the sweep runs a new one when it goes on)")
+                    raise
                 except ValueError as exc:
                     if "Cannot tell a FAIL trial" not in str(exc):  # Optuna has no class of its own for it
                         raise
@@ -444,6 +455,28 @@ def run_worker(
                 raise RuntimeError(f"{name}: three trials in a row failed; see the study's failed trials")
     finally:
         lock.close()
+
+
+class _AfterInterruptFilter(logging.Filter):
+    """Drops a logger's records from the first one that carries a KeyboardInterrupt on."""
+
+    interrupted = False
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        self.interrupted |= record.exc_info is not None and isinstance(record.exc_info[1], KeyboardInterrupt)
+        return not self.interrupted
+
+
+@contextlib.contextmanager
+def _interrupted_trial_unlogged() -> Iterator[None]:
+    """Optuna's warnings about a trial that Ctrl-C stopped left out (the KeyboardInterrupt's traceback, then
+    "failed with value None"): the worker reports it in one line. Other trials' warnings stay."""
+    logger, quiet = logging.getLogger(optuna.study._optimize.__name__), _AfterInterruptFilter()
+    logger.addFilter(quiet)
+    try:
+        yield
+    finally:
+        logger.removeFilter(quiet)
 
 
 def _worker_process(settings: SweepSettings, name: str, threads: int, stop: Any) -> None:

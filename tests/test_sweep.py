@@ -216,6 +216,29 @@ def test_a_worker_stops_before_its_next_trial_once_its_parent_sets_stop(
     assert handed == [stop]
 
 
+def test_a_trial_ctrl_c_stops_is_reported_in_one_line_without_optuna_s_traceback(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    calls: list[str] = []
+
+    def interrupted_then_broken(trial: optuna.Trial, settings: SweepSettings, score: object, stop: object) -> float:
+        calls.append("trial")
+        if len(calls) == 1:
+            raise KeyboardInterrupt
+        raise ValueError("a broken trial")
+
+    monkeypatch.setattr(sweep_module, "objective", interrupted_then_broken)
+    settings = SweepSettings("vegym/BouncingBall-v0", "td3", 3, f"sqlite:///{tmp_path / 'study.db'}", "ctrl-c")
+    lines: list[str] = []
+    with pytest.raises(KeyboardInterrupt):
+        run_worker(settings, "worker 0", log=lines.append)
+    assert lines[-1] == "worker 0: trial 0 interrupted (failed: the sweep runs a new one when it goes on)"
+    assert "Trial 0" not in caplog.text  # Optuna's warning and traceback of the KeyboardInterrupt
+    with pytest.raises(RuntimeError, match="three trials in a row failed"):
+        run_worker(settings, "worker 0", log=lines.append)
+    assert "Trial 1 failed with parameters" in caplog.text  # other failures keep Optuna's warning
+
+
 def test_a_trial_s_training_stops_on_the_stop_event(monkeypatch: pytest.MonkeyPatch) -> None:
     handed: list[object] = []
 
