@@ -16,6 +16,7 @@ import pytest
 import vegym  # noqa: F401
 from vegym.envs.base import load_object
 from vegym.render import canvas
+from vegym.render.canvas import pygame
 from vegym.render.gear_train import MOST_TEETH, TOOTH_PITCH, gear_outline
 
 
@@ -401,6 +402,23 @@ def test_small_gears_are_drawn_with_teeth_in_proportion(monkeypatch: pytest.Monk
     for _, points, *_ in polygons:
         distance = np.linalg.norm(points - points.mean(axis=0), axis=1)
         assert distance.min() > 0.8 * distance.max()
+
+
+def test_gear_labels_never_overlap_even_under_small_neighbouring_gears(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Seed 22 of an 8-gear train has gears of 2.04 and 2.02 cm side by side: their labels were written over each
+    other."""
+    texts = record_calls(monkeypatch, canvas, "text")  # (surface, lines, xy, size, colour)
+    env = gym.make("vegym/GearTrain-v0", render_mode="rgb_array", gears_min=8, gears_max=8)
+    env.reset(seed=22)
+    env.render()
+    boxes = []
+    for _, lines, (x, y), size, *_ in texts:
+        if lines[-1].startswith("r = "):
+            width = max(canvas.font(size).size(line)[0] for line in lines)
+            boxes.append(pygame.Rect(x, y, width, int(size * 0.95) * len(lines)))
+    env.close()
+    assert len(boxes) == 8
+    assert all(box.collidelist(boxes[:k]) < 0 for k, box in enumerate(boxes))
 
 
 def test_gear_train_draws_the_target_of_the_error_it_reports_and_a_next_one_apart(

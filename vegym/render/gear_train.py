@@ -8,6 +8,7 @@ import numpy as np
 
 from vegym.envs.gear_train import GearTrainParams, GearTrainTask
 from vegym.render import canvas, clock
+from vegym.render.canvas import pygame
 
 WIDTH, HEIGHT = 800, 520
 SPOKES = 3
@@ -24,6 +25,23 @@ def gear_outline(radius: float, angle: float, depth: float) -> np.ndarray:
     profile = radius + depth * np.array([1.0, 1.0, -1.0, -1.0])[np.arange(4 * teeth) % 4]
     turn = phase + angle + np.pi / (4 * teeth)
     return np.stack([profile * np.cos(turn), profile * np.sin(turn)], axis=-1)
+
+
+LABEL_SIZE = 16
+"""Font size (px) of the gears' labels."""
+
+
+def _label(surface: Any, lines: list[str], below: tuple[int, int], placed: list[Any]) -> None:
+    """Write ``lines`` centred under the pixel ``below``, a row of text further down for each earlier label
+    (``placed``, their rectangles, to which this one's is added) it would overlap: small neighbouring gears."""
+    font = canvas.font(LABEL_SIZE)
+    width = max(font.size(line)[0] for line in lines) + 6
+    height = int(LABEL_SIZE * 0.95) * len(lines)
+    box = pygame.Rect(below[0] - width // 2, below[1] + 6, width, height)
+    while box.collidelist(placed) >= 0:
+        box.move_ip(0, height)
+    placed.append(box)
+    canvas.text(surface, lines, (box.x + 3, box.y), LABEL_SIZE, canvas.GREY)
 
 
 class GearTrainRenderer:
@@ -61,6 +79,7 @@ class GearTrainRenderer:
         panel.frame(canvas.LIGHT)
         upcoming = float(self.task.target(s["key"], s["step"])[0])  # what the observation now shows
         target = float(self.last["target_angle"]) if self.last else upcoming  # that of the error in the text
+        placed: list[Any] = []
         for k, (x, radius, angle) in enumerate(zip(centres, radii, angles, strict=True)):
             body = canvas.ORANGE if k == 0 else canvas.BLUE if k == gears - 1 else canvas.GREY
             panel.polygon(gear_outline(radius, angle, depth) + [x, 0.0], body)
@@ -70,9 +89,8 @@ class GearTrainRenderer:
                 end = (x + (radius - 2 * depth) * np.cos(spoke), (radius - 2 * depth) * np.sin(spoke))
                 panel.line((x, 0.0), end, canvas.RED if j == 0 else body, 3 if j == 0 else 2)
             panel.dot((x, 0.0), 3, canvas.BLACK)
-            px, py = panel.to_px(x, -radius - depth)
             label = "motor" if k == 0 else "output" if k == gears - 1 else f"idler {k}"
-            canvas.text(surface, [label, f"r = {radius * 100:.3g} cm"], (px - 30, py + 6), 16, canvas.GREY)
+            _label(surface, [label, f"r = {radius * 100:.3g} cm"], panel.to_px(x, -radius - depth), placed)
         reach = radii[-1] * 1.35
         out = centres[-1]
         if upcoming != target:  # a new target from the next step on
