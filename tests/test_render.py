@@ -192,6 +192,23 @@ def test_projectile_views_take_in_every_shot_s_whole_flight_and_landing(
             assert all(rect.collidepoint(x, y) for x, y in panel.pixels(points)), (seed, rect)
 
 
+def test_aircraft_strip_labels_sit_above_their_charts(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Written inside the charts' top-left corners, the labels were crossed by a heading near +180 deg (the chart's
+    top, unpadded) or by an altitude or airspeed near its largest value."""
+    frames = record_calls(monkeypatch, canvas.Panel, "frame")  # (panel, colour): the top view, then the charts
+    texts = record_calls(monkeypatch, canvas, "text")  # (surface, lines, xy, size, colour)
+    env = gym.make("vegym/Aircraft-v0", render_mode="rgb_array")
+    env.reset(seed=0)
+    env.render()
+    env.close()
+    written = {lines[0]: (xy, size) for _, lines, xy, size, *_ in texts}
+    charts = [panel for panel, *_ in frames[1:]]
+    assert len(charts) == 3
+    for label, chart in zip(["altitude (m)", "airspeed (m/s)", "heading (deg)"], charts, strict=True):
+        (x, y), size = written[label]
+        assert y + size <= chart.rect.top and chart.rect.left <= x < chart.rect.right
+
+
 def test_aircraft_is_drawn_nose_first_along_its_heading_and_a_horizontal_wind_as_an_arrow(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:

@@ -121,7 +121,7 @@ class AircraftRenderer:
                 panel.polyline(segment, canvas.ORANGE, 2)
             for segment in self._unwrapped_segments(t, value, k == 2):
                 panel.polyline(segment, canvas.BLUE, 2)
-            canvas.text(surface, [label], (494, 88 + 145 * k), 16, canvas.GREY)
+            canvas.text(surface, [label], (490, 67 + 145 * k), 16, canvas.GREY)  # above the panel: lines reach its top
             canvas.text(surface, [f"{hi + pad:.0f}"], (448, 80 + 145 * k), 15, canvas.GREY)
             canvas.text(surface, [f"{lo - pad:.0f}"], (448, 195 + 145 * k), 15, canvas.GREY)
         canvas.text(
