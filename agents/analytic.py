@@ -468,10 +468,35 @@ CONTROLLERS: dict[type[Task], Callable[[Any], AnalyticController]] = {
 """Reference controller of each task, built from the task's parameters."""
 
 
+CLIPPING_WRAPPERS = (gym.wrappers.ClipAction, gym.wrappers.vector.ClipAction)
+"""Wrappers that take any action and clip it into their env's space: a controller's actions pass them unchanged."""
+
+
+def _observation_space(env: Any) -> gym.Space:
+    """The observation space of one env: a vector env's single one."""
+    return env.single_observation_space if isinstance(env, gym.vector.VectorEnv) else env.observation_space
+
+
+def _action_space(env: Any) -> gym.Space:
+    """The action space of one env: a vector env's single one."""
+    return env.single_action_space if isinstance(env, gym.vector.VectorEnv) else env.action_space
+
+
+def _changes_actions(env: Any) -> bool:
+    """Whether a wrapper of ``env`` changes the action space, other than :data:`CLIPPING_WRAPPERS` (``ClipAction``
+    widens it to +-inf only to clip into it)."""
+    while isinstance(env, gym.Wrapper | gym.vector.VectorWrapper):
+        if not isinstance(env, CLIPPING_WRAPPERS) and _action_space(env) != _action_space(env.env):
+            return True
+        env = env.env
+    return False
+
+
 def controller_for(env: Any) -> AnalyticController:
     """The analytic reference controller of a vegym env: a single env (from ``gymnasium.make``, wrapped or not) or
     the native vector env. ValueError for another env, and for wrappers that change the spaces the controller
-    reads and acts in (``NormalizeObservation``, ``RescaleAction``, ...)."""
+    reads and acts in (``NormalizeObservation``, ``RescaleAction``, ...); ``ClipAction`` passes its actions
+    unchanged."""
     unwrapped = getattr(env, "unwrapped", None)
     if not isinstance(unwrapped, VegymEnv | VegymVectorEnv):
         raise ValueError(
@@ -484,11 +509,8 @@ def controller_for(env: Any) -> AnalyticController:
             break
     else:
         raise ValueError(f"no analytic controller for {type(task).__name__}")
-    if isinstance(unwrapped, VegymVectorEnv):
-        spaces = env.single_observation_space, env.single_action_space
-    else:
-        spaces = env.observation_space, env.action_space
-    if spaces != controller.spaces:
+    spaces = _observation_space(env), _action_space(env)
+    if spaces[0] != controller.spaces[0] or _changes_actions(env):  # the env itself acts in controller.spaces[1]
         raise ValueError(
             f"{type(controller).__name__} reads {unwrapped.spec.id if unwrapped.spec else type(unwrapped).__name__}'s "
             f"observations {controller.spaces[0]} and acts in {controller.spaces[1]}, but {env} has {spaces[0]} "

@@ -275,9 +275,13 @@ def test_controller_for_refuses_other_envs_and_wrappers_that_change_the_spaces_i
     assert type(controller_for(gym.wrappers.vector.RecordEpisodeStatistics(vector))).__name__ == (
         "ProjectileFiringSolution"
     )
+    # ClipAction (the README's advice for exploration noise) widens the action space to +-inf only to clip into it
+    for clipped in (gym.wrappers.ClipAction(kept), gym.wrappers.vector.ClipAction(vector)):
+        assert type(controller_for(clipped)).__name__ == "ProjectileFiringSolution"
     for changed in (
         gym.wrappers.NormalizeObservation(gym.make(env_id)),
         gym.wrappers.RescaleAction(gym.make(env_id), np.float32(-2.0), np.float32(2.0)),
+        gym.wrappers.ClipAction(gym.wrappers.RescaleAction(gym.make(env_id), np.float32(-2.0), np.float32(2.0))),
         gym.wrappers.vector.NormalizeObservation(vector),
     ):
         with pytest.raises(ValueError, match="a wrapper changed them"):
