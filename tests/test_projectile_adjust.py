@@ -118,6 +118,18 @@ def test_the_observation_lists_the_newest_shots_first_and_the_episode_ends_on_a_
         ProjectileAdjustParams(max_shots=1)
 
 
+def test_steps_past_the_end_without_a_reset_stay_inside_the_observation_space() -> None:
+    """Gymnasium asks for a reset after ``terminated``; a step without one fires another shot, whose observation
+    showed 4 / 3 shots fired, outside the space."""
+    env = gym.make("vegym/ProjectileAdjust-v0")
+    env.reset(seed=0)
+    for shot in range(1, 6):
+        obs, _, terminated, _, info = env.step(np.zeros(3, np.float32))
+        assert env.observation_space.contains(obs) and obs[2] == min(shot, 3) / 3
+        assert terminated == (shot >= 3) and info["shots"] == shot
+    env.close()
+
+
 def test_the_controller_acts_on_any_observation_of_the_space() -> None:
     """Also on observations no episode makes: a launcher below the target's level whose downward shot never came
     down to it gives no wind (no finite estimate), and the controller fires the wind-free solution."""

@@ -197,7 +197,7 @@ def _observe(
         dx, dz = t[3 * i] - p[3 * i], t[3 * i + 2] - p[3 * i + 2]
         distance[i] = math.sqrt(dx * dx + dz * dz) / target_distance_max
         height[i] = p[3 * i + 1] / height_scale
-        fired[i] = shots[i] / max_shots
+        fired[i] = min(shots[i], max_shots) / max_shots  # steps past the end without a reset: still 1
     for i in range(n):
         obs[i, 0], obs[i, 1], obs[i, 2] = distance[i], height[i], fired[i]
     for k in range(misses.shape[1]):
@@ -352,6 +352,8 @@ class ProjectileAdjustEnv(VegymEnv[ProjectileAdjustParams]):
     ## Episode End
     Terminated on a hit (``info["is_success"]``) or after ``max_shots`` shots. Registered with
     ``max_episode_steps = 16``, the largest allowed ``max_shots``, so the time limit never cuts an episode short.
+    Steps past the end without the reset Gymnasium asks for fire further shots, each terminated, and observe the
+    shots fired as ``max_shots`` (1.0).
 
     ## Arguments
     ``gymnasium.make("vegym/ProjectileAdjust-v0", render_mode=None, **params)`` with the fields of
