@@ -81,7 +81,7 @@ def test_gusty_autopilot_keeps_a_steady_altitude_error_that_the_observation_lets
         f"draft-compensating policy {agent_steady:.2f} m, success {agent['success'].mean():.1%}"
     )
     assert steady == pytest.approx(expected, rel=0.05)
-    assert 8.0 < steady < 12.0  # the documented 10.0 m
+    assert 8.0 < steady < 12.0  # the documented 10.1 m (|w| / k_v averages 10.0 m over the drafts)
     assert agent_steady < steady / 3.0 and agent["success"].mean() > pilot["success"].mean() + 0.1
 
 
