@@ -431,8 +431,7 @@ def test_gear_labels_never_overlap_even_under_small_neighbouring_gears(monkeypat
     boxes = []
     for _, lines, (x, y), size, *_ in texts:
         if lines[-1].startswith("r = "):
-            width = max(canvas.font(size).size(line)[0] for line in lines)
-            boxes.append(pygame.Rect(x, y, width, int(size * 0.95) * len(lines)))
+            boxes.append(pygame.Rect((x, y), canvas.text_size(lines, size)))
     env.close()
     assert len(boxes) == 8
     assert all(box.collidelist(boxes[:k]) < 0 for k, box in enumerate(boxes))

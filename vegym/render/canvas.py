@@ -173,6 +173,16 @@ class Panel:
             pygame.draw.polygon(self.surface, color, [pb, pb - 8 * d + 4 * side, pb - 8 * d - 4 * side])
 
 
+def line_height(size: int) -> int:
+    """Pixels from one line of :func:`text` of font ``size`` to the next."""
+    return int(size * 0.95)
+
+
+def text_size(lines: Sequence[str], size: int = 18) -> tuple[int, int]:
+    """Width and height (px) of ``lines`` as :func:`text` writes them: the widest line's, the lines' together."""
+    return max(font(size).size(line)[0] for line in lines), line_height(size) * len(lines)
+
+
 def text(
     surface: pygame.Surface, lines: Sequence[str], xy: tuple[int, int], size: int = 18, color: Color = BLACK
 ) -> None:
@@ -180,7 +190,7 @@ def text(
     x, y = xy
     for line in lines:
         surface.blit(font(size).render(line, True, color), (x, y))
-        y += int(size * 0.95)
+        y += line_height(size)
 
 
 def new_surface(width: int, height: int) -> pygame.Surface:

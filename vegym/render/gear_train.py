@@ -34,10 +34,8 @@ LABEL_SIZE = 16
 def _label(surface: Any, lines: list[str], below: tuple[int, int], placed: list[Any]) -> None:
     """Write ``lines`` centred under the pixel ``below``, a row of text further down for each earlier label
     (``placed``, their rectangles, to which this one's is added) it would overlap: small neighbouring gears."""
-    font = canvas.font(LABEL_SIZE)
-    width = max(font.size(line)[0] for line in lines) + 6
-    height = int(LABEL_SIZE * 0.95) * len(lines)
-    box = pygame.Rect(below[0] - width // 2, below[1] + 6, width, height)
+    width, height = canvas.text_size(lines, LABEL_SIZE)
+    box = pygame.Rect(below[0] - width // 2 - 3, below[1] + 6, width + 6, height)
     while box.collidelist(placed) >= 0:
         box.move_ip(0, height)
     placed.append(box)
