@@ -18,6 +18,7 @@ from vegym.envs.base import load_object
 from vegym.render import canvas
 from vegym.render.canvas import pygame
 from vegym.render.gear_train import MOST_TEETH, TOOTH_PITCH, gear_outline
+from vegym.render.projectile import TICK_LABEL_SIZE
 
 
 def record_calls(monkeypatch: pytest.MonkeyPatch, owner: Any, name: str) -> list[tuple]:
@@ -190,6 +191,24 @@ def test_projectile_views_take_in_every_shot_s_whole_flight_and_landing(
         for panel, points in shapes:
             rect = panel.rect.inflate(2, 2)
             assert all(rect.collidepoint(x, y) for x, y in panel.pixels(points)), (seed, rect)
+
+
+@pytest.mark.parametrize("env_id", ["vegym/Projectile-v0", "vegym/ProjectileAdjust-v0"])
+def test_projectile_side_views_number_the_distance_along_the_ground(
+    env_id: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The side views had no numbers: marks every 1, 2, 5, 10, ... m from the launcher (0) past the target."""
+    texts = record_calls(monkeypatch, canvas, "text")  # (surface, lines, xy, size, colour)
+    env = gym.make(env_id, render_mode="rgb_array")
+    env.reset(seed=0)
+    info = env.step(np.zeros(3, np.float32))[-1]
+    env.render()
+    env.close()
+    marks = [float(lines[0]) for _, lines, _, size, *_ in texts if size == TICK_LABEL_SIZE]
+    step = marks[1] - marks[0]
+    assert step in (5.0, 10.0, 20.0) and 0.0 in marks and "-0" not in [lines[0] for _, lines, *_ in texts]
+    np.testing.assert_allclose(np.diff(marks), step)
+    assert marks[-1] > np.hypot(*(info["target"] - info["launch_position"])[[0, 2]])
 
 
 def test_aircraft_strip_labels_sit_above_their_charts(monkeypatch: pytest.MonkeyPatch) -> None:
