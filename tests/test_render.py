@@ -19,6 +19,7 @@ from vegym.render import canvas
 from vegym.render.canvas import pygame
 from vegym.render.gear_train import MOST_TEETH, TOOTH_PITCH, gear_outline
 from vegym.render.projectile import TICK_LABEL_SIZE
+from vegym.render.projectile_adjust import beside_clear_of_ring
 
 
 def record_calls(monkeypatch: pytest.MonkeyPatch, owner: Any, name: str) -> list[tuple]:
@@ -209,6 +210,21 @@ def test_projectile_side_views_number_the_distance_along_the_ground(
     assert step in (5.0, 10.0, 20.0) and 0.0 in marks and "-0" not in [lines[0] for _, lines, *_ in texts]
     np.testing.assert_allclose(np.diff(marks), step)
     assert marks[-1] > np.hypot(*(info["target"] - info["launch_position"])[[0, 2]])
+
+
+def test_projectile_adjust_shot_numbers_stay_off_the_hit_ring() -> None:
+    """A landing beside the ring (inside or outside) had its number written across the ring's line."""
+    centre, radius, size = (120, 120), 40.0, canvas.text_size(["3"], 18)  # a shot's number as drawn
+    on_ring = np.linspace(0.0, 2.0 * np.pi, 2000)
+    ring = np.stack([np.cos(on_ring), np.sin(on_ring)], -1) * radius + centre
+    for distance in (radius - 6.0, radius - 2.0, radius + 2.0, radius + 6.0, 5.0):
+        for angle in np.linspace(0.0, 2.0 * np.pi, 48, endpoint=False):
+            dot = (round(centre[0] + distance * np.cos(angle)), round(centre[1] + distance * np.sin(angle)))
+            left, top = beside_clear_of_ring(dot, size, centre, radius)
+            inside = (
+                (ring[:, 0] > left) & (ring[:, 0] < left + size[0]) & (ring[:, 1] > top) & (ring[:, 1] < top + size[1])
+            )
+            assert not inside.any(), (distance, angle)
 
 
 def test_aircraft_strip_labels_sit_above_their_charts(monkeypatch: pytest.MonkeyPatch) -> None:

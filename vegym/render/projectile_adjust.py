@@ -17,6 +17,22 @@ _TEXT_LINES = 4
 SHOT_COLORS: tuple[canvas.Color, ...] = (canvas.BLUE, canvas.ORANGE, canvas.GREEN, (140, 60, 170), canvas.BLACK)
 
 
+def beside_clear_of_ring(
+    dot: tuple[int, int], size: tuple[int, int], centre: tuple[int, int], radius: float
+) -> tuple[int, int]:
+    """Top-left pixel of a label of ``size`` (w, h) beside the pixel ``dot``: right of it, else left, above or
+    below, the first whose box stays off the circle of ``radius`` px about ``centre`` (the hit ring); right of it
+    if none does."""
+    (x, y), (w, h) = dot, size
+    places = [(x + 7, y - h // 2), (x - 7 - w, y - h // 2), (x - w // 2, y - 7 - h), (x - w // 2, y + 7)]
+    for left, top in places:
+        nearest = np.hypot(np.clip(centre[0], left, left + w) - centre[0], np.clip(centre[1], top, top + h) - centre[1])
+        farthest = max(np.hypot(cx - centre[0], cy - centre[1]) for cx in (left, left + w) for cy in (top, top + h))
+        if not nearest <= radius <= farthest:
+            return left, top
+    return places[0]
+
+
 class ProjectileAdjustRenderer:
     """Draws the launcher, the target and all the shots of a single env's episode; the hidden wind in grey."""
 
@@ -60,6 +76,7 @@ class ProjectileAdjustRenderer:
             np.array([wind @ across, wind @ along]) * 0.25 * zoom / p.wind_scale,
             canvas.GREY,
         )
+        ring = top.length_px(p.hit_radius)
         lines = []
         for k, (shot, path) in enumerate(zip(self.shots, paths, strict=True)):
             color = SHOT_COLORS[k % len(SHOT_COLORS)]
@@ -73,8 +90,9 @@ class ProjectileAdjustRenderer:
                 top.circle(shown, 6.0 / top.scale[0], color, 2)  # 6 px
             else:
                 top.dot(shown, 5, color)
-            x, y = top.to_px(*shown)
-            canvas.text(surface, [str(k + 1)], (x + 7, y - 8), 18, color)
+            number = str(k + 1)
+            xy = beside_clear_of_ring(top.to_px(*shown), canvas.text_size([number], 18), top.to_px(0.0, 0.0), ring)
+            canvas.text(surface, [number], xy, 18, color)
             surface.set_clip(None)
             verdict = "HIT" if shot["is_success"] else "miss"
             lines.append(
