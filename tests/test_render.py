@@ -18,7 +18,7 @@ from vegym.envs.base import load_object
 from vegym.render import canvas
 from vegym.render.canvas import pygame
 from vegym.render.gear_train import MOST_TEETH, TOOTH_PITCH, gear_outline
-from vegym.render.projectile import TICK_LABEL_SIZE
+from vegym.render.projectile import TICK_LABEL_SIZE, side_world
 from vegym.render.projectile_adjust import beside_clear_of_ring
 
 
@@ -210,6 +210,16 @@ def test_projectile_side_views_number_the_distance_along_the_ground(
     assert step in (5.0, 10.0, 20.0) and 0.0 in marks and "-0" not in [lines[0] for _, lines, *_ in texts]
     np.testing.assert_allclose(np.diff(marks), step)
     assert marks[-1] > np.hypot(*(info["target"] - info["launch_position"])[[0, 2]])
+
+
+def test_projectile_side_view_height_is_in_proportion_to_the_scene() -> None:
+    """At least 1.6 times the highest launch or a seventh of the reach: a 3 m scene had a 16 m tall view."""
+    along = np.array([1.0, 0.0, 0.0])
+    assert side_world(3.45, 0.4, 0.5, [], along)[3] == pytest.approx(0.8)  # 1.6 * max(0.5, 3.45 / 7)
+    assert side_world(69.0, 15.0, 20.0, [], along)[3] == pytest.approx(32.0)  # the defaults: 1.6 * 20 m
+    assert side_world(69.0, 1.0, 2.0, [], along)[3] == pytest.approx(1.6 * 69.0 / 7.0)
+    path = np.array([[0.0, 0.0, 0.0], [10.0, 30.0, 0.0]])  # a lob above it widens it
+    assert side_world(69.0, 15.0, 20.0, [path], along)[3] == pytest.approx(1.05 * 45.0)
 
 
 def test_projectile_adjust_shot_numbers_stay_off_the_hit_ring() -> None:

@@ -25,10 +25,11 @@ def side_world(
     reach: float, launch_height: float, launch_height_max: float, paths: list[np.ndarray], along: np.ndarray
 ) -> tuple[float, float, float, float]:
     """The side view's world box (along the line of fire ``along``, height; m): the launcher, ``reach`` and at
-    least 1.6 times the highest launch, widened to take in every path (k, 3) relative to the launcher, which
-    stands ``launch_height`` high."""
+    least 1.6 times the highest launch or a seventh of ``reach`` (a view in proportion to the scene, whatever its
+    size), widened to take in every path (k, 3) relative to the launcher, which stands ``launch_height`` high."""
     x = [0.0, reach, *(float(v) for path in paths for v in (np.min(path @ along), np.max(path @ along)))]
-    top = max([max(launch_height_max, 10.0) * 1.6, *(1.05 * (launch_height + np.max(path[:, 1])) for path in paths)])
+    lowest_top = max(launch_height_max, reach / 7.0) * 1.6
+    top = max([lowest_top, *(1.05 * (launch_height + np.max(path[:, 1])) for path in paths)])
     x_span = max(x) - min(x)
     return min(x) - MARGIN * x_span, max(x) + MARGIN * x_span, -MARGIN * top, top
 
