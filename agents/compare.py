@@ -262,8 +262,10 @@ def markdown(
         "",
         f"{episodes} episodes per env and agent (and per training seed of a learned agent; *seeds*: how many), "
         f"episode seeds {seed}..{seed + episodes - 1}, deterministic actions. "
-        "normalized = (R - R_random) / (R_analytic - R_random) per episode, averaged; IQM: the interquartile mean "
-        "of the same scores; [95% CI]: bootstrap resampling the training seeds and, shared by them, the episodes; "
+        "normalized = (R - mean R_random) / (mean R_analytic - mean R_random) per episode, the baselines' means "
+        "over the same episodes, averaged; IQM: the interquartile mean of the same scores; [95% CI]: bootstrap "
+        "resampling the training seeds and, shared by them and by the baselines, the episodes (a resample "
+        "normalizes by the baselines' means over its episodes: the analytic controller's interval is [1, 1]); "
         "*vs reference*: the mean against a stronger reference (BouncingBall: `planner`, planning over the shown "
         "targets, and `oracle`, the exact optimum knowing every future target; AircraftGusty: "
         "`draft-compensating`, the autopilot with draft feed-forward; Suspension: `continuous-skyhook`, the clipped "

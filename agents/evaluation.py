@@ -31,7 +31,7 @@ from agents.analytic import (
     controller_for,
 )
 from agents.config import TrainConfig, load_resolved, make_kwargs
-from agents.statistics import ScoreSummary, summarize
+from agents.statistics import ScoreSummary, normalized, summarize
 from agents.training import CONFIG_FILE, MODEL_FILE, normalize_path, saved_timesteps, seed_runs
 
 EVAL_SEED = 1000
@@ -237,6 +237,9 @@ class EvalResult:
     """Per-episode normalized scores, shape ``(runs, episodes)``; :func:`score` fills them (None if the
     references tie)."""
     normalized_score_vs: dict[str, float | None] = field(default_factory=dict)
+    baseline_returns: tuple[np.ndarray, np.ndarray] | None = None
+    """The random policy's and the analytic controller's returns on the same episodes (episodes,), which
+    normalize the scores; :func:`score` fills them (None if they tie)."""
 
     @property
     def normalized_score(self) -> float | None:
@@ -245,8 +248,9 @@ class EvalResult:
 
     @cached_property
     def summary(self) -> ScoreSummary | None:
-        """Mean, IQM and their 95% crossed-bootstrap CIs (:mod:`agents.statistics`) of :attr:`normalized_scores`."""
-        return None if self.normalized_scores is None else summarize(self.normalized_scores)
+        """Mean, IQM and their 95% crossed-bootstrap CIs (:mod:`agents.statistics`) of :attr:`normalized_scores`,
+        paired with the baselines' episodes."""
+        return None if self.baseline_returns is None else summarize(self.return_matrix(), *self.baseline_returns)
 
     @property
     def episodes(self) -> list[Episode]:
@@ -337,11 +341,6 @@ def evaluate(
         env.close()
 
 
-def normalized(value: float, low: float, high: float) -> float | None:
-    """``(value - low) / (high - low)``, None when the references tie."""
-    return None if math.isclose(high, low, rel_tol=0.0, abs_tol=1e-12) else (value - low) / (high - low)
-
-
 def score(results: list[EvalResult]) -> None:
     """Fill the normalized scores of one env's results (they must include ``analytic`` and ``random``).
 
@@ -349,14 +348,17 @@ def score(results: list[EvalResult]) -> None:
     controller over the same episodes, ``(R - R_random) / (R_analytic - R_random)``; its mean over the episodes is
     the normalized mean return.
     """
-    means = {r.agent: float(r.returns.mean()) for r in results}
+    by_agent = {r.agent: r for r in results}
     for name in ("analytic", "random"):
-        if name not in means:
+        if name not in by_agent:
             raise ValueError(f"normalized scores need the {name!r} agent's result")
+    means = {r.agent: float(r.returns.mean()) for r in results}
     low, high = means["random"], means["analytic"]
+    tie = normalized(high, low, high) is None
+    baselines = None if tie else (by_agent["random"].returns, by_agent["analytic"].returns)
     references = [r.agent for r in results if r.agent in REFERENCE_AGENTS.get(results[0].env_id, {})]
     for r in results:
-        tie = normalized(high, low, high) is None
+        r.baseline_returns = baselines
         r.normalized_scores = None if tie else (r.return_matrix() - low) / (high - low)
         r.normalized_score_vs = {ref: normalized(means[r.agent], means["random"], means[ref]) for ref in references}
 

@@ -48,7 +48,8 @@ from sqlalchemy.engine import make_url
 from stable_baselines3.common.callbacks import BaseCallback
 
 from agents.config import CONFIG_DIR, TrainConfig, env_params, load_config, make_kwargs, with_overrides, zoo_entry
-from agents.evaluation import BASELINES, LearnedAgent, evaluate, load_learned, normalized, run_episode
+from agents.evaluation import BASELINES, LearnedAgent, evaluate, load_learned, run_episode
+from agents.statistics import normalized
 from agents.training import interrupts_handled, raise_keyboard_interrupt, train
 
 SWEEP_EVAL_SEED = 5000
