@@ -277,7 +277,9 @@ class EvalResult:
         return {name: float(np.mean([fn(ep) for ep in self.episodes])) for name, fn in table.items()}
 
     def record(self) -> dict[str, Any]:
-        """The JSON record: returns over every episode of every run, normalized-score statistics, metrics."""
+        """The JSON record: the returns of every episode of every run (``returns``, runs x episodes, from which
+        and the baselines' records the scores and intervals follow), their statistics, normalized-score
+        statistics, metrics."""
         returns = self.returns
         summary = self.summary
         return {
@@ -286,6 +288,7 @@ class EvalResult:
             "seeds": self.training_seeds,
             "episodes": len(self.runs[0]),
             "seed": self.seed,
+            "returns": self.return_matrix().tolist(),
             "mean_return": float(returns.mean()),
             "std_return": float(returns.std()),
             "success_rate": self.success_rate,

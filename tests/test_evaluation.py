@@ -35,6 +35,7 @@ def test_an_evaluation_plays_seeds_seed_on_and_reports_their_population_statisti
     assert len(set(returns)) == 5 and 0 < sum(successes) < 5  # the checks below can tell the episodes apart
     record = result.record()
     np.testing.assert_array_equal(result.returns, returns)
+    assert record["returns"] == [returns.tolist()]  # one run of five episodes, as compare.json keeps them
     assert record["mean_return"] == pytest.approx(returns.mean(), abs=1e-12)
     assert record["std_return"] == pytest.approx(math.sqrt(np.mean((returns - returns.mean()) ** 2)), abs=1e-12)
     assert record["success_rate"] == np.mean(successes)  # at the episodes' last steps

@@ -43,6 +43,7 @@ from agents.config import (
 )
 from agents.evaluation import EVAL_SEED, agent_factory, evaluate, evaluate_agents, load_learned
 from agents.multiseed import SeedOutcome
+from agents.statistics import summarize
 from agents.training import TrainResult, build_model, make_env, resume_config, saved_timesteps, train
 from agents.vec_adapter import VectorEnvAdapter, split_info
 
@@ -849,6 +850,10 @@ def test_compare_retrains_on_a_tiny_budget_and_writes_every_file(tmp_path: Path)
             assert r["seeds"] is None and r["normalized_score_per_seed"] is None
     scores = {r["agent"]: r["normalized_score"] for r in records if r["agent"] in ("analytic", "random")}
     assert scores == {"analytic": pytest.approx(1.0), "random": pytest.approx(0.0)}
+    baselines = {(r["env_id"], r["agent"]): r["returns"][0] for r in records if r["agent"] in ("random", "analytic")}
+    for r in records:  # the recorded returns give the recorded intervals
+        paired = summarize(r["returns"], baselines[r["env_id"], "random"], baselines[r["env_id"], "analytic"])
+        assert [*paired.mean_ci95, *paired.iqm_ci95] == [*r["ci95_normalized_score"], *r["ci95_iqm_normalized_score"]]
     markdown = (out / "compare.md").read_text()
     for name in ("BouncingBall-v0", "Projectile-v0"):
         assert (out / f"{name}_trajectory.png").stat().st_size > 0
