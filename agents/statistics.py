@@ -18,7 +18,7 @@ same episodes. Each replicate normalizes by their means over its own draw of epi
 episode's difficulty, shared by the agent and the baselines, cancels instead of showing as spread. So the
 analytic controller's mean has the point interval [1, 1], and an agent's interval tells whether it differs from
 that controller on these episodes (holding the baselines at their overall means gave Aircraft's PPO [0.960,
-1.002] where the paired interval is [0.972, 0.988]).
+1.002] where the paired interval is [0.971, 0.988]).
 """
 
 from __future__ import annotations
