@@ -45,6 +45,12 @@ def test_tick_step_keeps_the_finest_spacing_when_few_and_steps_1_2_5_otherwise()
         assert extent / step <= 12 < extent / (step / 2.0)
 
 
+def test_multiples_are_those_of_the_step_within_the_closed_range() -> None:
+    np.testing.assert_allclose(canvas.multiples(-0.3, 1.0, 0.25), [-0.25, 0.0, 0.25, 0.5, 0.75, 1.0])
+    np.testing.assert_allclose(canvas.multiples(3.0, 68.9, 10.0), [10.0, 20.0, 30.0, 40.0, 50.0, 60.0])
+    assert len(canvas.multiples(0.1, 0.2, 1.0)) == 0
+
+
 def test_gear_teeth_keep_their_pitch_up_to_a_cap() -> None:
     radius = 0.08
     assert len(gear_outline(radius, 0.0, 0.004)) == 4 * round(2.0 * np.pi * radius / TOOTH_PITCH)

@@ -60,9 +60,9 @@ class BilliardsRenderer:
         table, (x0, x1, y0, y1) = self._table(surface, np.array(shown))
         surface.fill(CLOTH, table.rect)
         grid = canvas.tick_step(max(x1 - x0, y1 - y0), 0.25, 40)
-        for x in np.arange(np.ceil(x0 / grid), x1 / grid) * grid:
+        for x in canvas.multiples(x0, x1, grid):
             table.line((x, y0), (x, y1), CLOTH_LINE)
-        for y in np.arange(np.ceil(y0 / grid), y1 / grid) * grid:
+        for y in canvas.multiples(y0, y1, grid):
             table.line((x0, y), (x1, y), CLOTH_LINE)
         table.line(a, b, CLOTH_LINE)
         ball(table, target, p.target_radius, TARGET, 2)

@@ -43,6 +43,11 @@ def tick_step(extent: float, finest: float, most: int) -> float:
     raise AssertionError("unreachable")  # pragma: no cover
 
 
+def multiples(low: float, high: float, step: float) -> np.ndarray:
+    """The multiples of ``step`` in ``[low, high]``, ascending: where ticks or grid lines of that spacing go."""
+    return np.arange(np.ceil(low / step), np.floor(high / step) + 1) * step
+
+
 def font(size: int) -> pygame.font.Font:
     """pygame's default font at ``size`` pixels (cached; needs no display). The font module is started again,
     and the cache emptied, when it is not running: never started, or stopped by a ``pygame.quit()`` elsewhere

@@ -42,7 +42,7 @@ def ground_ticks(surface: Any, side: canvas.Panel, left: float, right: float) ->
     """Distance marks along the side view's ground line between ``left`` and ``right`` (m from the launcher): a
     tick every 1, 2, 5, 10, ... m (at most 10) and its number under the line."""
     step = canvas.tick_step(right - left, 1.0, 10)
-    for x in np.arange(np.ceil(left / step), np.floor(right / step) + 1) * step:
+    for x in canvas.multiples(left, right, step):
         px, py = side.to_px(float(x), 0.0)
         canvas.pygame.draw.line(surface, canvas.GREY, (px, py), (px, py + 4))
         label = f"{x + 0.0:g}"  # + 0.0: no "-0" for the launcher's mark
