@@ -347,8 +347,9 @@ def cmd_demo(args: argparse.Namespace) -> int:
     name, factory, config = agent_factory(args.agent, env_id, args.seed)
     env_kwargs = config.env_kwargs if config is not None else {}
     if isinstance(factory, Mapping):
-        training_seed, factory = next(iter(factory.items()))
-        say(f"showing the agent of training seed {training_seed}")
+        if len(factory) > 1:
+            say(f"showing the agent of training seed {next(iter(factory))}")
+        factory = next(iter(factory.values()))
     if args.gif:
         from agents.plots import save_episode_gif
 

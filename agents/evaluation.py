@@ -416,8 +416,8 @@ def agent_factory(
     """Name, factory and (for a trained model) config of an agent named on the command line.
 
     ``spec`` is ``analytic``, ``random``, a reference of the env (e.g. ``oracle`` for BouncingBall) or the path
-    of a trained model for the same env: a run directory or zip, or a directory of ``seed_<k>/`` runs (then the
-    factory is one per training seed).
+    of a trained model for the same env: a run directory or zip, or a directory of ``seed_<k>/`` runs. A model's
+    factory is one per training seed (the single seed of a run or zip, from its config).
     """
     if spec in BASELINES:
         return spec, BASELINES[spec](seed), None
@@ -428,12 +428,12 @@ def agent_factory(
         choices = ", ".join([*BASELINES, *references, "PATH"])
         raise ValueError(f"agent {spec!r} is neither a model path nor one of {choices}")
     path = Path(spec)
-    if path.is_dir() and not (path / MODEL_FILE).is_file():
-        factory: AgentFactory | SeededFactories
+    factory: SeededFactories
+    if path.is_dir():
         factory, config = load_seeded(path)
     else:
         learned, config = load_learned(path)
-        factory = lambda env: learned  # noqa: E731
+        factory = {config.seed: lambda env: learned}
     if config.env_id != env_id:
         raise ValueError(f"agent {spec!r} was trained on {config.env_id}, not {env_id}")
     return config.algo, factory, config

@@ -692,6 +692,18 @@ def test_evaluating_an_interrupted_run_notes_the_steps_it_lacks(tmp_path: Path, 
     assert note in capsys.readouterr().out
 
 
+def test_evaluating_one_run_records_its_training_seed(tmp_path: Path) -> None:
+    entry = "vegym/Projectile-v0:\n  n_timesteps: 64\n  n_envs: 4\n  n_steps: 16\n  batch_size: 64\n  seed: 5\n"
+    out = tmp_path / "seed_5"
+    train(load_config(write_config(tmp_path, entry), "vegym/Projectile-v0"), out, progress_bar=False)
+    for agent in (out, out / "model.zip"):
+        record_path = tmp_path / "record.json"
+        argv = ["evaluate", "--env", "Projectile-v0", "--agent", str(agent), "--episodes", "2", "--json"]
+        assert main([*argv, str(record_path)]) == 0
+        record = json.loads(record_path.read_text())
+        assert record["seeds"] == [5] and list(record["normalized_score_per_seed"]) == ["5"]
+
+
 def test_resume_skips_a_model_cut_short_and_goes_on_from_the_newest_that_reads(tmp_path: Path) -> None:
     entry = "vegym/Projectile-v0:\n  n_timesteps: 64\n  n_envs: 4\n  n_steps: 16\n  batch_size: 64\n"
     config = load_config(write_config(tmp_path, entry + "  eval_freq: 1e6\n  save_freq: 32\n"), "vegym/Projectile-v0")
