@@ -282,6 +282,7 @@ class EvalResult:
         statistics, metrics."""
         returns = self.returns
         summary = self.summary
+        mean_ci, iqm_ci = (None, None) if summary is None else (summary.mean_ci95, summary.iqm_ci95)
         return {
             "env_id": self.env_id,
             "agent": self.agent,
@@ -294,8 +295,8 @@ class EvalResult:
             "success_rate": self.success_rate,
             "normalized_score": self.normalized_score,
             "iqm_normalized_score": None if summary is None else summary.iqm,
-            "ci95_normalized_score": None if summary is None else list(summary.mean_ci95),
-            "ci95_iqm_normalized_score": None if summary is None else list(summary.iqm_ci95),
+            "ci95_normalized_score": None if mean_ci is None else list(mean_ci),
+            "ci95_iqm_normalized_score": None if iqm_ci is None else list(iqm_ci),
             "normalized_score_per_seed": self._per_seed_scores(),
             "normalized_score_vs": dict(self.normalized_score_vs),
             "metrics": self.metrics(),

@@ -39,12 +39,13 @@ CONFIDENCE = 0.95
 
 @dataclass(frozen=True)
 class ScoreSummary:
-    """Mean and IQM of a score matrix with their 95% crossed-bootstrap confidence intervals."""
+    """Mean and IQM of a score matrix with their 95% crossed-bootstrap confidence intervals (None for a single
+    score, one seed's one episode, which leaves nothing to resample)."""
 
     mean: float
     iqm: float
-    mean_ci95: tuple[float, float]
-    iqm_ci95: tuple[float, float]
+    mean_ci95: tuple[float, float] | None
+    iqm_ci95: tuple[float, float] | None
 
 
 def normalized(value: float, low: float, high: float) -> float | None:
@@ -56,7 +57,7 @@ def summarize(returns: np.ndarray, random: np.ndarray, analytic: np.ndarray) -> 
     """Mean, IQM and their 95% CIs of the normalized scores ``(R - mean(random)) / (mean(analytic) -
     mean(random))`` of ``returns``, shape ``(seeds, episodes)``, where ``random`` and ``analytic`` (episodes,) are
     the baselines' returns on the same episodes. ValueError if the baselines' means tie; a replicate whose
-    episode draw ties them is left out."""
+    episode draw ties them is left out. A single score (one seed, one episode) has no interval."""
     returns = np.asarray(returns, dtype=np.float64)
     baselines = np.asarray([random, analytic], dtype=np.float64)
     if returns.ndim != 2 or returns.size == 0:
@@ -69,6 +70,9 @@ def summarize(returns: np.ndarray, random: np.ndarray, analytic: np.ndarray) -> 
     if normalized(high, low, high) is None:
         raise ValueError(f"the baselines tie (mean return {low!r}): no normalized score")
     scores = (returns - low) / (high - low)
+    mean, iqm = float(metrics.aggregate_mean(scores)), float(metrics.aggregate_iqm(scores))
+    if scores.size == 1:
+        return ScoreSummary(mean, iqm, None, None)
     n_seeds, n_episodes = returns.shape
     episode_draws = np.random.default_rng([BOOTSTRAP_SEED, 0]).integers(0, n_episodes, (BOOTSTRAP_REPS, n_episodes))
     seed_draws = np.random.default_rng([BOOTSTRAP_SEED, 1]).integers(0, n_seeds, (BOOTSTRAP_REPS, n_seeds))
@@ -79,9 +83,4 @@ def summarize(returns: np.ndarray, random: np.ndarray, analytic: np.ndarray) -> 
     tail = 50.0 * (1.0 - CONFIDENCE)
     mean_low, mean_high = np.percentile(replicates.mean(axis=1), [tail, 100.0 - tail])
     iqm_low, iqm_high = np.percentile(stats.trim_mean(replicates, 0.25, axis=1), [tail, 100.0 - tail])
-    return ScoreSummary(
-        float(metrics.aggregate_mean(scores)),
-        float(metrics.aggregate_iqm(scores)),
-        (float(mean_low), float(mean_high)),
-        (float(iqm_low), float(iqm_high)),
-    )
+    return ScoreSummary(mean, iqm, (float(mean_low), float(mean_high)), (float(iqm_low), float(iqm_high)))

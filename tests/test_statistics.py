@@ -22,6 +22,13 @@ def test_constant_scores_have_a_point_interval() -> None:
     assert summary.mean_ci95 == pytest.approx((0.7, 0.7)) and summary.iqm_ci95 == pytest.approx((0.7, 0.7))
 
 
+def test_a_single_score_has_no_interval_and_one_episode_of_several_seeds_has_one() -> None:
+    single = summarize_scores(np.array([[0.7]]))
+    assert single.mean == pytest.approx(0.7) and single.mean_ci95 is None and single.iqm_ci95 is None
+    seeds = summarize_scores(np.array([[0.6], [0.8]]))
+    assert seeds.mean_ci95 == pytest.approx((0.6, 0.8)) and seeds.iqm_ci95 == pytest.approx((0.6, 0.8))
+
+
 def outlier_scores() -> np.ndarray:
     """Three seeds of 20 episodes around 1.0, three of them outliers at -5 (which move the mean, not the IQM)."""
     scores = np.random.default_rng(0).normal(1.0, 0.2, (3, 20))
