@@ -11,6 +11,7 @@ against each stronger reference of the env (:data:`REFERENCE_AGENTS`) and the ta
 from __future__ import annotations
 
 import math
+import warnings
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -350,7 +351,8 @@ def score(results: list[EvalResult]) -> None:
 
     Every episode's return R is normalized by the mean returns of the random policy and the analytic
     controller over the same episodes, ``(R - R_random) / (R_analytic - R_random)``; its mean over the episodes is
-    the normalized mean return.
+    the normalized mean return. Warns when the analytic controller scores below the random policy (the scale
+    then runs backwards).
     """
     by_agent = {r.agent: r for r in results}
     for name in ("analytic", "random"):
@@ -359,6 +361,12 @@ def score(results: list[EvalResult]) -> None:
     means = {r.agent: float(r.returns.mean()) for r in results}
     low, high = means["random"], means["analytic"]
     tie = normalized(high, low, high) is None
+    if high < low and not tie:
+        warnings.warn(
+            f"{results[0].env_id}: the analytic controller's mean return ({high:.6g}) is below the random policy's "
+            f"({low:.6g}), so a normalized score above 0 is worse than random",
+            stacklevel=2,
+        )
     baselines = None if tie else (by_agent["random"].returns, by_agent["analytic"].returns)
     references = [r.agent for r in results if r.agent in REFERENCE_AGENTS.get(results[0].env_id, {})]
     for r in results:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 from pathlib import Path
 from typing import Any
 
@@ -140,3 +141,16 @@ def test_the_table_s_iqm_cell_shows_the_iqm_and_its_interval() -> None:
     row = dict(zip(compare.TABLE_COLUMNS, compare.table_rows([record])[0], strict=True))
     assert row["normalized [95% CI]"] == "0.600 [0.100, 0.900]"
     assert row["IQM [95% CI]"] == "0.610 [0.550, 0.650]"
+
+
+def test_scoring_warns_when_the_analytic_controller_returns_less_than_random() -> None:
+    env_id = "vegym/BouncingBall-v0"
+    random_factory = agent_factory("random", env_id)[1]
+    controller = evaluate(env_id, "analytic", controller_for, episodes=3)
+    random = evaluate(env_id, "random", random_factory, episodes=3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        evaluation.score([controller, random])
+    swapped = [evaluate(env_id, "analytic", random_factory, episodes=3), evaluate(env_id, "random", controller_for, 3)]
+    with pytest.warns(UserWarning, match="analytic controller's mean return .* is below the random policy's"):
+        evaluation.score(swapped)
