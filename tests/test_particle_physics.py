@@ -135,14 +135,17 @@ def test_event_step_comes_to_rest_in_the_closed_form_time() -> None:
     assert h[0] > 0.0 or v[0] != 0.0
 
 
-def test_event_step_rejects_a_start_below_the_ground() -> None:
+def test_event_step_rejects_a_start_below_the_ground_and_a_rest_speed_that_never_stops() -> None:
     with pytest.raises(ValueError, match="below the ground"):
         particle.event_step(np.array([0.05]), np.array([0.0]), 0.1, 1.0, ParticleParams(radius=0.1))
+    with pytest.raises(ValueError, match=r"rest_speed=0.0 is outside the allowed range \(0, inf\)"):
+        particle.event_step(np.array([0.1]), np.array([0.0]), 0.1, 0.8, ParticleParams(radius=0.1), rest_speed=0.0)
 
 
-def test_event_step_ending_ulps_short_of_a_contact_stays_on_or_above_the_ground() -> None:
+def test_event_step_ending_ulps_short_of_a_contact_stays_on_the_ground_and_bounces_next_step() -> None:
     """h >= r after every step: a step a few ulps short of the contact time used to round the height below r
-    (-3.6e-16 m), which the next step refused as a start below the ground."""
+    (-3.6e-16 m), which the next step refused as a start below the ground. Held at r, the particle still moves
+    down: the next step bounces it, as one step over both spans does (it used to stop it dead, as at rest)."""
     params = ParticleParams(radius=0.1)
     rng = np.random.default_rng(0)
     h0, v0 = rng.uniform(0.2, 3.0, 2000), rng.uniform(-8.0, 8.0, 2000)
@@ -154,7 +157,9 @@ def test_event_step_ending_ulps_short_of_a_contact_stays_on_or_above_the_ground(
         for h, v, step in zip(h0, v0, dt, strict=True):
             h1, v1 = particle.event_step(np.array([h]), np.array([v]), float(step), 0.8, params)
             assert h1[0] >= params.radius
-            particle.event_step(h1, v1, 0.01, 0.8, params)  # and the next step starts from it
+            h2, v2 = particle.event_step(h1, v1, 0.01, 0.8, params)
+            h_one, v_one = particle.event_step(np.array([h]), np.array([v]), float(step) + 0.01, 0.8, params)
+            assert h2[0] == pytest.approx(h_one[0], abs=1e-9) and v2[0] == pytest.approx(v_one[0], abs=1e-9)
 
 
 def test_batched_functions_equal_looped_bit_for_bit() -> None:

@@ -154,20 +154,20 @@ def event_step(
     The clean event-exact step of PHYSICS.md section 1: fly to the contact, apply ``v = -e * v_g``, fly
     on with the rest of the step, repeat. A rebound slower than ``rest_speed`` (m/s) leaves the particle
     at rest on the ground (the Zeno guard: infinitely many bounces in finite time). The result does not
-    depend on how a time span is split into steps. ``h >= radius`` is required.
+    depend on how a time span is split into steps. ``h >= radius`` and ``rest_speed > 0`` are required; a
+    particle on the ground moving down bounces (with ``v = 0``, it rests).
     """
     h = np.array(h, dtype=np.float64, copy=True)
     v = np.array(v, dtype=np.float64, copy=True)
     e = np.broadcast_to(np.asarray(restitution, dtype=np.float64), h.shape)
+    if not rest_speed > 0.0:  # a bounce that never stops rebounding loops forever (Zeno)
+        raise ValueError(f"rest_speed={rest_speed!r} is outside the allowed range (0, inf) m/s")
     if np.any(h < params.radius):
         raise ValueError(f"h={h.min()!r} is below the ground; the allowed range is h >= radius={params.radius}")
     g, r = params.gravity, params.radius
     t_left = np.full(h.shape, float(dt))
     active = np.ones(h.shape, dtype=bool)
-    resting = (h <= r) & (v <= 0.0)
-    h[resting], v[resting] = r, 0.0
-    active &= ~resting
-    while np.any(active):
+    while np.any(active):  # on the ground moving down (at rest too) lands at once: it rebounds or stays at rest
         tg = time_to_ground(h, v, r, g)
         lands = active & (tg <= t_left)
         flies = active & ~lands
