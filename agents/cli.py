@@ -325,10 +325,6 @@ def cmd_sweep(args: argparse.Namespace) -> int:
         tune_env=parse_tune_env(args.tune_env, env_id),
         heartbeat=args.heartbeat,
     )
-    say(
-        f"study {settings.study!r} in {settings.storage}: {settings.trials} trials of {args.algo} on {env_id}, "
-        f"{args.workers} worker(s) here; run the same command elsewhere with this --storage to add workers"
-    )
     start = time.perf_counter()
     study = sweep(settings, args.workers, args.threads, log=say)
     finished = study.get_trials(deepcopy=False, states=FINISHED)

@@ -128,30 +128,43 @@ def default_storage(study: str) -> str:
     return f"sqlite:///{SWEEPS_DIR / study}.db"
 
 
+def shown_storage(url: str) -> str:
+    """``url`` as printed: its password, if any, masked as ``***``."""
+    try:
+        return make_url(url).render_as_string(hide_password=True)
+    except sqlalchemy.exc.ArgumentError:
+        return url
+
+
 def check_storage(url: str) -> None:
     """ValueError unless ``url`` is a SQLite file or a PostgreSQL URL whose driver is installed."""
+    shown = repr(shown_storage(url))
     try:
         parsed = make_url(url)
     except sqlalchemy.exc.ArgumentError:
-        raise ValueError(f"--storage {url!r} is not a database URL (sqlite:///path.db, postgresql://...)") from None
+        raise ValueError(f"--storage {shown} is not a database URL (sqlite:///path.db, postgresql://...)") from None
     backend = parsed.get_backend_name()
     if backend == "sqlite" and parsed.database in (None, "", ":memory:"):
-        raise ValueError(f"--storage {url!r}: a sweep needs a SQLite file, e.g. sqlite:///runs/sweeps/study.db")
+        raise ValueError(f"--storage {shown}: a sweep needs a SQLite file, e.g. sqlite:///runs/sweeps/study.db")
     if backend not in ("sqlite", "postgresql"):
-        raise ValueError(f"--storage {url!r}: vegym sweep runs on sqlite:/// or postgresql:// storages")
+        raise ValueError(f"--storage {shown}: vegym sweep runs on sqlite:/// or postgresql:// storages")
     try:
         parsed.get_dialect().import_dbapi()
     except ImportError:
-        raise ValueError(f'--storage {url!r}: its database driver is missing: pip install -e ".[postgres]"') from None
+        raise ValueError(f'--storage {shown}: its database driver is missing: pip install -e ".[postgres]"') from None
 
 
 def open_storage(url: str, heartbeat: int, attempts: int = 3) -> RDBStorage:
-    """The study storage with heartbeats and retry of the trials of dead workers."""
+    """The study storage with heartbeats and retry of the trials of dead workers; ValueError if the database
+    cannot be opened (a server that does not answer, a refused login, a SQLite file that cannot be written)."""
     parsed = make_url(url)
     engine_kwargs: dict[str, Any] = {}
     if parsed.get_backend_name() == "sqlite":
-        if parsed.database:
-            Path(parsed.database).parent.mkdir(parents=True, exist_ok=True)
+        folder = Path(parsed.database).parent
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise ValueError(f"--storage {url!r}: cannot create {folder} ({exc.strerror})") from None
         engine_kwargs["connect_args"] = {"timeout": 60}
     try:
         with warnings.catch_warnings():
@@ -168,6 +181,9 @@ def open_storage(url: str, heartbeat: int, attempts: int = 3) -> RDBStorage:
             raise
         time.sleep(1.0)  # another process was creating the tables of this new storage at the same moment
         return open_storage(url, heartbeat, attempts - 1)
+    except sqlalchemy.exc.OperationalError as exc:
+        reason = " ".join(str(exc.orig).split())  # the driver's message, on one line
+        raise ValueError(f"--storage {shown_storage(url)!r}: cannot open the database: {reason}") from None
 
 
 class StudyLock:
@@ -357,7 +373,9 @@ def load_study(settings: SweepSettings) -> optuna.Study:
     if stored is None:
         study.set_user_attr("vegym", wanted)
     elif stored != wanted:
-        raise ValueError(f"study {settings.study!r} in {settings.storage} was created for {stored}, not {wanted}")
+        raise ValueError(
+            f"study {settings.study!r} in {shown_storage(settings.storage)} was created for {stored}, not {wanted}"
+        )
     return study
 
 
@@ -496,7 +514,7 @@ def sweep(
     settings: SweepSettings, workers: int = 1, threads: int = 1, log: Callable[[str], None] = print
 ) -> optuna.Study:
     """Run ``workers`` worker processes on the study (in this process if 1) until it is complete; each trains
-    with ``threads`` torch threads."""
+    with ``threads`` torch threads. Logs where the study is once it is open."""
     if workers < 1:
         raise ValueError(f"workers={workers!r} must be at least 1")
     if settings.trials < 1:
@@ -504,6 +522,11 @@ def sweep(
     load_config(CONFIG_DIR / f"{settings.algo}.yml", settings.env_id, settings.algo)  # its errors before the study's
     check_storage(settings.storage)
     study = load_study(settings)  # create it once, before the workers race to
+    log(
+        f"study {settings.study!r} in {shown_storage(settings.storage)}: {settings.trials} trials of {settings.algo} "
+        f"on {settings.env_id}, {workers} worker(s) here; run the same command elsewhere with this --storage to add "
+        "workers"
+    )
     if workers == 1:
         torch.set_num_threads(threads)
         run_worker(settings, "worker 0", log)

@@ -309,6 +309,22 @@ def test_bad_storage_urls_are_clear_errors(capsys: pytest.CaptureFixture[str]) -
         assert message in capsys.readouterr().out
 
 
+def test_a_storage_that_cannot_be_opened_is_one_clear_error_that_masks_the_password(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    base = ["sweep", "--env", "BouncingBall-v0", "--algo", "td3", "--trials", "1"]
+    for storage, shown in [
+        ("postgresql://user:secret@127.0.0.1:1/db", "'postgresql://user:***@127.0.0.1:1/db'"),  # nothing listens
+        ("sqlite:////proc/study.db", "'sqlite:////proc/study.db'"),
+    ]:
+        assert main([*base, "--storage", storage]) == 2
+        out = capsys.readouterr().out
+        assert out.startswith(f"error: --storage {shown}: cannot open the database: ") and out.count("\n") == 1
+        assert "secret" not in out and "study " not in out  # nor is the study announced before it opens
+    assert main([*base, "--storage", "sqlite:////proc/vegym/study.db"]) == 2
+    assert capsys.readouterr().out.startswith("error: --storage 'sqlite:////proc/vegym/study.db': cannot create")
+
+
 def test_an_env_without_a_config_entry_is_refused_before_the_study_is_created(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
