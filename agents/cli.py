@@ -125,10 +125,12 @@ def cmd_train(args: argparse.Namespace) -> int:
         return _train_seeds(args, env_id, out)
     if args.resume:
         if args.config is not None or args.seed is not None:
-            raise SystemExit("--resume continues with the run's saved config.yml; drop --config and --seed")
+            raise ValueError("--resume continues with the run's saved config.yml; drop --config and --seed")
         config = resume_config(out, args.timesteps)
         if (config.env_id, config.algo) != (env_id, args.algo):
-            raise SystemExit(f"--resume: {out / CONFIG_FILE} is {config.algo} on {config.env_id}")
+            raise ValueError(
+                f"--resume: {out / CONFIG_FILE} is {config.algo} on {config.env_id}, not {args.algo} on {env_id}"
+            )
     else:
         config = _load_train_config(args, env_id, args.seed)
     command = shlex.join(["vegym", *args.argv]) if not args.resume else None
@@ -163,9 +165,9 @@ def _train_seeds(args: argparse.Namespace, env_id: str, out: Path) -> int:
     from agents.training import seed_dir
 
     if args.seed is not None:
-        raise SystemExit("give either --seed or --seeds")
+        raise ValueError("give either --seed or --seeds")
     if args.resume and args.config is not None:
-        raise SystemExit("--resume continues with each seed's saved config.yml; drop --config")
+        raise ValueError("--resume continues with each seed's saved config.yml; drop --config")
     if args.resume:
         configs = resumed_configs(out, args.seeds, env_id, args.algo, args.timesteps)
     else:

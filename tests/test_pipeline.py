@@ -704,6 +704,22 @@ def test_evaluating_one_run_records_its_training_seed(tmp_path: Path) -> None:
         assert record["seeds"] == [5] and list(record["normalized_score_per_seed"]) == ["5"]
 
 
+def test_train_argument_conflicts_are_errors_with_exit_code_2(tmp_path: Path, capsys: Any) -> None:
+    entry = "vegym/Projectile-v0:\n  n_timesteps: 64\n  n_envs: 4\n  n_steps: 16\n  batch_size: 64\n"
+    out = tmp_path / "run"
+    train(load_config(write_config(tmp_path, entry), "vegym/Projectile-v0"), out, progress_bar=False)
+    capsys.readouterr()
+    base = ["train", "--env", "Projectile-v0", "--out", str(out)]
+    for argv, message in [
+        (["--algo", "sac", "--resume"], f"--resume: {out / 'config.yml'} is ppo on vegym/Projectile-v0, not sac on"),
+        (["--algo", "ppo", "--resume", "--seed", "1"], "--resume continues with the run's saved config.yml"),
+        (["--algo", "ppo", "--seed", "1", "--seeds", "0,1"], "give either --seed or --seeds"),
+        (["--algo", "ppo", "--seeds", "0", "--resume", "--config", "x.yml"], "--resume continues with each seed's"),
+    ]:
+        assert main([*base, *argv]) == 2
+        assert capsys.readouterr().out.startswith(f"error: {message}")
+
+
 def test_resume_skips_a_model_cut_short_and_goes_on_from_the_newest_that_reads(tmp_path: Path) -> None:
     entry = "vegym/Projectile-v0:\n  n_timesteps: 64\n  n_envs: 4\n  n_steps: 16\n  batch_size: 64\n"
     config = load_config(write_config(tmp_path, entry + "  eval_freq: 1e6\n  save_freq: 32\n"), "vegym/Projectile-v0")
