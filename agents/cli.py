@@ -43,10 +43,18 @@ def say(message: str, style: str | None = None) -> None:
 
 
 def _integer(text: str) -> int:
+    """An integer, also written as a float without a fraction (1e5), as the configs take one."""
     try:
         return int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not an integer") from None
+        pass
+    try:
+        number = float(text)
+    except ValueError:
+        number = math.nan
+    if not math.isfinite(number) or number != int(number):
+        raise argparse.ArgumentTypeError(f"{text!r} is not an integer")
+    return int(number)
 
 
 def _positive(text: str) -> int:
@@ -104,7 +112,7 @@ def cmd_list(args: argparse.Namespace) -> int:
 
 def _seed_list(text: str) -> list[int]:
     try:
-        seeds = [int(part) for part in text.split(",") if part.strip()]
+        seeds = [int(part) for part in text.split(",")]
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a comma-separated list of seeds, e.g. 0,1,2") from None
     if not seeds or min(seeds) < 0 or len(set(seeds)) != len(seeds):
@@ -116,7 +124,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     """Train an SB3 agent from a config, on one seed or on several in parallel."""
     import torch
 
-    from agents.training import CONFIG_FILE, check_run_dir, resume_config, train
+    from agents.training import CONFIG_FILE, check_run_dir, held_timesteps, resume_config, train
 
     env_id = vegym.resolve_env_id(args.env)
     out = Path(args.out) if args.out else Path("runs") / env_name(env_id) / args.algo
@@ -137,8 +145,13 @@ def cmd_train(args: argparse.Namespace) -> int:
     planned, step = f"{config.n_timesteps} steps", config.collection_steps
     if step and config.n_timesteps % step and not args.resume:
         planned += f" ({math.ceil(config.n_timesteps / step) * step}: SB3 collects {step} steps at a time)"
-    check_run_dir(out, args.resume)  # before the line below, which would announce a run that does not start
-    say(f"training {config.algo} on {config.env_id} for {planned} into {out}")
+    source = check_run_dir(out, args.resume)  # before the line below, which would announce a run that does not start
+    if source is None:
+        say(f"training {config.algo} on {config.env_id} for {planned} into {out}")
+    else:
+        held = held_timesteps(source)
+        start = source.name if held is None else f"{held} steps ({source.name})"
+        say(f"resuming {config.algo} on {config.env_id} in {out} from {start}, to {planned} in all")
     result = train(config, out, resume=args.resume, progress_bar=not args.no_progress, command=command)
     if result.interrupted:
         say(f"interrupted at {result.timesteps} steps; saved {result.model_path}; continue with --resume")

@@ -637,7 +637,10 @@ def load_config(
     data = read_yaml(path)
     if not isinstance(data, Mapping) or env_id not in data:
         entries = ", ".join(map(str, data)) if isinstance(data, Mapping) else "none"
-        raise ConfigError(f"{path}: no entry for {env_id}; entries: {entries}")
+        raise ConfigError(
+            f"{path}: no entry for {env_id}; entries: {entries}. Add one, here or in a file of your own "
+            "(vegym train --config FILE)"
+        )
     entry = data[env_id]
     if isinstance(entry, Mapping):  # else config_from_entry refuses it
         entry = {**entry, **(overrides or {})}

@@ -78,6 +78,14 @@ def saved_timesteps(path: Path) -> int:
         return int(json.loads(archive.read("data"))["num_timesteps"])
 
 
+def held_timesteps(path: Path) -> int | None:
+    """:func:`saved_timesteps`, or None for a file it cannot read (cut short, not a model zip)."""
+    try:
+        return saved_timesteps(path)
+    except (OSError, ValueError, KeyError, zipfile.BadZipFile):
+        return None
+
+
 def normalize_path(model_path: Path) -> Path:
     """The VecNormalize statistics saved with a model: ``vecnormalize.pkl`` or a checkpoint's own file."""
     match = re.fullmatch(rf"{CHECKPOINT_PREFIX}_(\d+)_steps\.zip", model_path.name)
@@ -115,10 +123,8 @@ def _models(run_dir: Path) -> list[Path]:
         candidates.append(run_dir / MODEL_FILE)
 
     def steps(path: Path) -> int:
-        try:
-            return saved_timesteps(path)
-        except (OSError, ValueError, KeyError, zipfile.BadZipFile):
-            return -1
+        held = held_timesteps(path)
+        return -1 if held is None else held
 
     return sorted(candidates, key=steps, reverse=True)
 

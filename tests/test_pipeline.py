@@ -25,7 +25,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 
 import vegym
 from agents import compare
-from agents.cli import _print_table, main
+from agents.cli import _print_table, build_parser, main
 from agents.config import (
     ALGOS,
     CONFIG_DIR,
@@ -312,7 +312,7 @@ def test_vec_normalize_takes_the_algorithm_s_gamma_unless_its_own_is_given(tmp_p
 
 
 def test_config_file_errors(tmp_path: Path) -> None:
-    with pytest.raises(ConfigError, match="no entry for vegym/Projectile-v0"):
+    with pytest.raises(ConfigError, match=r"no entry for vegym/Projectile-v0; .* \(vegym train --config FILE\)"):
         load_config(write_config(tmp_path, "vegym/BouncingBall-v0:\n  n_timesteps: 10\n"), "vegym/Projectile-v0")
     with pytest.raises(ConfigError, match="'vegym/Nope-v0' is not a registered env"):
         load_configs(write_config(tmp_path, "vegym/Nope-v0:\n  n_timesteps: 10\n"))
@@ -720,6 +720,17 @@ def test_train_argument_conflicts_are_errors_with_exit_code_2(tmp_path: Path, ca
         assert capsys.readouterr().out.startswith(f"error: {message}")
 
 
+def test_a_resumed_run_is_announced_with_the_steps_it_starts_from(tmp_path: Path, capsys: Any) -> None:
+    entry = "vegym/Projectile-v0:\n  n_timesteps: 64\n  n_envs: 4\n  n_steps: 16\n  batch_size: 64\n"
+    out = tmp_path / "run"
+    train(load_config(write_config(tmp_path, entry), "vegym/Projectile-v0"), out, progress_bar=False)
+    capsys.readouterr()
+    argv = ["train", "--env", "Projectile-v0", "--algo", "ppo", "--out", str(out), "--resume", "--timesteps", "128"]
+    assert main([*argv, "--no-progress"]) == 0
+    announced = capsys.readouterr().out.splitlines()[0]
+    assert announced == f"resuming ppo on vegym/Projectile-v0 in {out} from 64 steps (model.zip), to 128 steps in all"
+
+
 def test_resume_skips_a_model_cut_short_and_goes_on_from_the_newest_that_reads(tmp_path: Path) -> None:
     entry = "vegym/Projectile-v0:\n  n_timesteps: 64\n  n_envs: 4\n  n_steps: 16\n  batch_size: 64\n"
     config = load_config(write_config(tmp_path, entry + "  eval_freq: 1e6\n  save_freq: 32\n"), "vegym/Projectile-v0")
@@ -1079,11 +1090,27 @@ def test_list_shows_every_env(capsys: pytest.CaptureFixture[str]) -> None:
         assert env_id in out
 
 
-def test_a_non_integer_count_is_a_clear_argument_error(capsys: pytest.CaptureFixture[str]) -> None:
+@pytest.mark.parametrize(
+    ("argument", "text", "message"),
+    [
+        ("--jobs", "abc", "'abc' is not an integer"),
+        ("--timesteps", "2.5e0", "'2.5e0' is not an integer"),
+        ("--seeds", "0,,1", "'0,,1' is not a comma-separated list of seeds"),
+        ("--seeds", "0,1,", "'0,1,' is not a comma-separated list of seeds"),
+    ],
+)
+def test_a_non_integer_count_is_a_clear_argument_error(
+    argument: str, text: str, message: str, capsys: pytest.CaptureFixture[str]
+) -> None:
     with pytest.raises(SystemExit) as caught:
-        main(["train", "--env", "Projectile-v0", "--algo", "ppo", "--jobs", "abc"])
+        main(["train", "--env", "Projectile-v0", "--algo", "ppo", argument, text])
     assert caught.value.code == 2
-    assert "argument --jobs: 'abc' is not an integer" in capsys.readouterr().err
+    assert f"argument {argument}: {message}" in capsys.readouterr().err
+
+
+def test_counts_take_integers_written_as_floats_as_the_configs_do() -> None:
+    args = build_parser().parse_args(["train", "--env", "Projectile-v0", "--algo", "ppo", "--timesteps", "1e5"])
+    assert args.timesteps == 100000 and isinstance(args.timesteps, int)
 
 
 def test_bad_input_is_a_clear_error(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
