@@ -212,7 +212,10 @@ def _collect(
         progress.update(bars[seed], completed=payload)
     elif kind == "done":
         outcomes[seed] = SeedOutcome(seed, result=payload)
-        progress.update(bars[seed], total=payload.timesteps, completed=payload.timesteps)
+        if payload.interrupted:  # short of its total, which the bar keeps
+            progress.update(bars[seed], completed=payload.timesteps)
+        else:  # its total as trained: rounded up to whole collections, or more already held
+            progress.update(bars[seed], total=payload.timesteps, completed=payload.timesteps)
         progress.stop_task(bars[seed])
         if payload.interrupted or payload.trained:
             state = "interrupted at" if payload.interrupted else "done after"

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import queue
 import re
 import signal
 import subprocess
@@ -19,12 +20,13 @@ import numpy as np
 import pytest
 import torch
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
+from rich.progress import Progress
 from stable_baselines3 import SAC
 from stable_baselines3.common.callbacks import BaseCallback
 from stable_baselines3.common.vec_env import DummyVecEnv
 
 import vegym
-from agents import compare
+from agents import compare, multiseed
 from agents.cli import _print_table, build_parser, main
 from agents.config import (
     ALGOS,
@@ -1148,3 +1150,16 @@ def test_demo_writes_a_gif(tmp_path: Path) -> None:
     gif = tmp_path / "demo.gif"
     assert main(["demo", "--env", "BouncingBall-v0", "--agent", "oracle", "--gif", str(gif)]) == 0
     assert gif.read_bytes()[:6] == b"GIF89a"
+
+
+@pytest.mark.parametrize(("interrupted", "total"), [(True, 200), (False, 70)])
+def test_a_seed_s_progress_bar_keeps_its_total_when_interrupted_and_takes_the_trained_one_when_done(
+    interrupted: bool, total: int
+) -> None:
+    channel: queue.Queue = queue.Queue()
+    channel.put(("done", 3, TrainResult(Path("model.zip"), 70, interrupted, 1.0)))
+    with Progress(disable=True) as progress:
+        bars = {3: progress.add_task("seed 3", total=200)}
+        multiseed._collect(channel, {}, {}, progress, bars, log=lambda line: None)
+        task = progress.tasks[0]
+        assert (task.completed, task.total) == (70, total)
