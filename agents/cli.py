@@ -267,6 +267,8 @@ def cmd_evaluate(args: argparse.Namespace) -> int:
     record = next(r.record() for r in results if r.agent == name)
     cells = table_rows([record])[0]
     rows = [[column, cell] for column, cell in zip(TABLE_COLUMNS[:-1], cells, strict=False)]
+    if record["seeds"] is not None:  # the seeds themselves, where compare's column counts them
+        rows[TABLE_COLUMNS.index("seeds")] = ["training seeds", ", ".join(map(str, record["seeds"]))]
     rows += [[key, f"{value:.4g}"] for key, value in record["metrics"].items()]
     _print_table(f"{name} on {env_id}: {args.episodes} episodes from seed {args.seed}", ["metric", "value"], rows)
     text = json.dumps(record, indent=2)

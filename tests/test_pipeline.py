@@ -694,7 +694,7 @@ def test_evaluating_an_interrupted_run_notes_the_steps_it_lacks(tmp_path: Path, 
     assert note in capsys.readouterr().out
 
 
-def test_evaluating_one_run_records_its_training_seed(tmp_path: Path) -> None:
+def test_evaluating_one_run_records_its_training_seed(tmp_path: Path, capsys: Any) -> None:
     entry = "vegym/Projectile-v0:\n  n_timesteps: 64\n  n_envs: 4\n  n_steps: 16\n  batch_size: 64\n  seed: 5\n"
     out = tmp_path / "seed_5"
     train(load_config(write_config(tmp_path, entry), "vegym/Projectile-v0"), out, progress_bar=False)
@@ -704,6 +704,7 @@ def test_evaluating_one_run_records_its_training_seed(tmp_path: Path) -> None:
         assert main([*argv, str(record_path)]) == 0
         record = json.loads(record_path.read_text())
         assert record["seeds"] == [5] and list(record["normalized_score_per_seed"]) == ["5"]
+        assert re.search(r"training seeds\s*│\s*5\s*│", capsys.readouterr().out)  # the seed, not a count
 
 
 def test_train_argument_conflicts_are_errors_with_exit_code_2(tmp_path: Path, capsys: Any) -> None:
