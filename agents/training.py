@@ -319,17 +319,15 @@ def train(
         verbose=int(verbose),
     )
     _continue_evaluations(evaluation, out / EVAL_DIR / EVAL_FILE, done)
-    all_callbacks = [
-        CheckpointCallback(
-            max(config.save_freq // config.n_envs, 1),
-            str(out / CHECKPOINT_DIR),
-            name_prefix=CHECKPOINT_PREFIX,
-            save_vecnormalize=normalize is not None,
-        ),
-        evaluation,
-        stopper,
-        *callbacks,
-    ]
+    checkpoints = CheckpointCallback(
+        max(config.save_freq // config.n_envs, 1),
+        str(out / CHECKPOINT_DIR),
+        name_prefix=CHECKPOINT_PREFIX,
+        save_vecnormalize=normalize is not None,
+    )
+    for periodic in (checkpoints, evaluation):  # a resumed run goes on at the multiples of eval_freq and save_freq
+        periodic.n_calls = done // config.n_envs  # they count their calls, one per vector step
+    all_callbacks = [checkpoints, evaluation, stopper, *callbacks]
     remaining = config.n_timesteps - done
     with stopper.catching():
         if remaining > 0:

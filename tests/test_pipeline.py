@@ -734,6 +734,18 @@ def test_a_resumed_run_is_announced_with_the_steps_it_starts_from(tmp_path: Path
     assert announced == f"resuming ppo on vegym/Projectile-v0 in {out} from 64 steps (model.zip), to 128 steps in all"
 
 
+def test_a_resumed_run_evaluates_and_saves_at_the_multiples_of_its_frequencies(tmp_path: Path) -> None:
+    entry = "vegym/Projectile-v0:\n  n_timesteps: 64\n  n_envs: 4\n  n_steps: 16\n  batch_size: 64\n"
+    config = load_config(write_config(tmp_path, entry + "  eval_freq: 48\n  save_freq: 48\n"), "vegym/Projectile-v0")
+    out = tmp_path / "run"
+    train(config, out, progress_bar=False)
+    train(resume_config(out, 160), out, resume=True, progress_bar=False)  # to 192: whole rollouts of 64
+    with np.load(out / "eval" / "evaluations.npz") as evaluations:
+        assert evaluations["timesteps"].tolist() == [48, 96, 144, 192]
+    saved = sorted(saved_timesteps(path) for path in (out / "checkpoints").glob("model_*_steps.zip"))
+    assert saved == [48, 96, 144, 192]
+
+
 def test_resume_skips_a_model_cut_short_and_goes_on_from_the_newest_that_reads(tmp_path: Path) -> None:
     entry = "vegym/Projectile-v0:\n  n_timesteps: 64\n  n_envs: 4\n  n_steps: 16\n  batch_size: 64\n"
     config = load_config(write_config(tmp_path, entry + "  eval_freq: 1e6\n  save_freq: 32\n"), "vegym/Projectile-v0")
