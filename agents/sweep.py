@@ -160,11 +160,11 @@ def open_storage(url: str, heartbeat: int, attempts: int = 3) -> RDBStorage:
     parsed = make_url(url)
     engine_kwargs: dict[str, Any] = {}
     if parsed.get_backend_name() == "sqlite":
-        folder = Path(parsed.database).parent
+        folder = Path(parsed.database or ".").parent
         try:
             folder.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
-            raise ValueError(f"--storage {url!r}: cannot create {folder} ({exc.strerror})") from None
+            raise ValueError(f"--storage {shown_storage(url)!r}: cannot create {folder} ({exc.strerror})") from None
         engine_kwargs["connect_args"] = {"timeout": 60}
     try:
         with warnings.catch_warnings():
