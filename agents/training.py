@@ -30,8 +30,9 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
+from stable_baselines3.common import callbacks as sb3_callbacks
 from stable_baselines3.common.base_class import BaseAlgorithm
-from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback, EvalCallback
+from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback, EvalCallback, ProgressBarCallback
 from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv, VecMonitor, VecNormalize
 
@@ -244,6 +245,20 @@ def _progress_bar_available() -> bool:
     return all(importlib.util.find_spec(m) is not None for m in ("tqdm", "rich"))
 
 
+class WholeCollectionsProgressBar(ProgressBarCallback):
+    """SB3's progress bar, its total the steps that ``learn`` trains: the ones asked for rounded up to whole
+    collections of ``collection_steps`` (None: as asked), where SB3's bar read 8,192/5,000."""
+
+    def __init__(self, collection_steps: int | None) -> None:
+        super().__init__()
+        self.collection_steps = collection_steps
+
+    def _on_training_start(self) -> None:
+        asked = self.locals["total_timesteps"] - self.model.num_timesteps
+        step = self.collection_steps
+        self.pbar = sb3_callbacks.tqdm(total=-(-asked // step) * step if step else asked)
+
+
 def check_run_dir(out: Path, resume: bool) -> Path | None:
     """The model a run in ``out`` would start from (None for a fresh run); ValueError if ``out`` does not suit
     the run: a fresh one into a directory holding a run (its own or ``seed_<k>/`` ones), or a resumed one into
@@ -328,13 +343,14 @@ def train(
     for periodic in (checkpoints, evaluation):  # a resumed run goes on at the multiples of eval_freq and save_freq
         periodic.n_calls = done // config.n_envs  # they count their calls, one per vector step
     all_callbacks = [checkpoints, evaluation, stopper, *callbacks]
+    if progress_bar and _progress_bar_available():
+        all_callbacks.append(WholeCollectionsProgressBar(config.collection_steps))
     remaining = config.n_timesteps - done
     with stopper.catching():
         if remaining > 0:
             model.learn(
                 remaining,
                 callback=all_callbacks,
-                progress_bar=progress_bar and _progress_bar_available(),
                 reset_num_timesteps=source is None,
                 tb_log_name=config.algo,
             )

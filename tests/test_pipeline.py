@@ -13,6 +13,7 @@ import threading
 import time
 import zipfile
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import gymnasium as gym
@@ -46,7 +47,15 @@ from agents.config import (
 from agents.evaluation import EVAL_SEED, agent_factory, evaluate, evaluate_agents, load_learned
 from agents.multiseed import SeedOutcome
 from agents.statistics import summarize
-from agents.training import TrainResult, build_model, make_env, resume_config, saved_timesteps, train
+from agents.training import (
+    TrainResult,
+    WholeCollectionsProgressBar,
+    build_model,
+    make_env,
+    resume_config,
+    saved_timesteps,
+    train,
+)
 from agents.vec_adapter import VectorEnvAdapter, split_info
 
 CONFIG_FILES = sorted(CONFIG_DIR.glob("*.yml"))
@@ -1176,3 +1185,17 @@ def test_a_seed_s_progress_bar_keeps_its_total_when_interrupted_and_takes_the_tr
         multiseed._collect(channel, {}, {}, progress, bars, log=lambda line: None)
         task = progress.tasks[0]
         assert (task.completed, task.total) == (70, total)
+
+
+@pytest.mark.filterwarnings("ignore::tqdm.TqdmExperimentalWarning")  # SB3 ignores it once, at import
+@pytest.mark.parametrize(("collection_steps", "total"), [(64, 128), (None, 100)])
+def test_the_progress_bar_counts_the_steps_learn_trains_whole_collections_included(
+    collection_steps: int | None, total: int
+) -> None:
+    bar = WholeCollectionsProgressBar(collection_steps)
+    bar.locals, bar.model = {"total_timesteps": 300}, SimpleNamespace(num_timesteps=200)  # 100 asked for
+    bar._on_training_start()
+    try:
+        assert bar.pbar.total == total
+    finally:
+        bar.pbar.close()
