@@ -142,9 +142,9 @@ def cmd_train(args: argparse.Namespace) -> int:
     else:
         config = _load_train_config(args, env_id, args.seed)
     command = shlex.join(["vegym", *args.argv]) if not args.resume else None
-    planned, step = f"{config.n_timesteps} steps", config.collection_steps
-    if step and config.n_timesteps % step and not args.resume:
-        planned += f" ({math.ceil(config.n_timesteps / step) * step}: SB3 collects {step} steps at a time)"
+    planned, trained = f"{config.n_timesteps} steps", config.trained_steps(config.n_timesteps)
+    if trained != config.n_timesteps and not args.resume:
+        planned += f" ({trained}: SB3 collects {config.collection_steps} steps at a time)"
     source = check_run_dir(out, args.resume)  # before the line below, which would announce a run that does not start
     if source is None:
         say(f"training {config.algo} on {config.env_id} for {planned} into {out}")

@@ -157,6 +157,12 @@ class TrainConfig:
         every, unit = _train_freq(_setting(self, "train_freq"))
         return every * self.n_envs if unit == "step" else None
 
+    def trained_steps(self, asked: int) -> int:
+        """The env steps SB3 trains when ``learn`` is asked for ``asked`` more: rounded up to whole
+        :attr:`collection_steps`."""
+        step = self.collection_steps
+        return -(-asked // step) * step if step else asked
+
     def to_entry(self) -> dict[str, Any]:
         """The flat YAML entry that loads back into this config, with ``env_id`` and ``algo`` (a run's record: RL
         Zoo's keys plus vegym's, not an RL Zoo file)."""

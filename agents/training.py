@@ -246,17 +246,16 @@ def _progress_bar_available() -> bool:
 
 
 class WholeCollectionsProgressBar(ProgressBarCallback):
-    """SB3's progress bar, its total the steps that ``learn`` trains: the ones asked for rounded up to whole
-    collections of ``collection_steps`` (None: as asked), where SB3's bar read 8,192/5,000."""
+    """SB3's progress bar, its total the steps that ``learn`` trains (:meth:`TrainConfig.trained_steps`: the ones
+    asked for rounded up to whole collections), where SB3's bar read 8,192/5,000."""
 
-    def __init__(self, collection_steps: int | None) -> None:
+    def __init__(self, config: TrainConfig) -> None:
         super().__init__()
-        self.collection_steps = collection_steps
+        self.config = config
 
     def _on_training_start(self) -> None:
         asked = self.locals["total_timesteps"] - self.model.num_timesteps
-        step = self.collection_steps
-        self.pbar = sb3_callbacks.tqdm(total=-(-asked // step) * step if step else asked)
+        self.pbar = sb3_callbacks.tqdm(total=self.config.trained_steps(asked))
 
 
 def check_run_dir(out: Path, resume: bool) -> Path | None:
@@ -344,7 +343,7 @@ def train(
         periodic.n_calls = done // config.n_envs  # they count their calls, one per vector step
     all_callbacks = [checkpoints, evaluation, stopper, *callbacks]
     if progress_bar and _progress_bar_available():
-        all_callbacks.append(WholeCollectionsProgressBar(config.collection_steps))
+        all_callbacks.append(WholeCollectionsProgressBar(config))
     remaining = config.n_timesteps - done
     with stopper.catching():
         if remaining > 0:

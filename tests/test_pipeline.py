@@ -1188,11 +1188,17 @@ def test_a_seed_s_progress_bar_keeps_its_total_when_interrupted_and_takes_the_tr
 
 
 @pytest.mark.filterwarnings("ignore::tqdm.TqdmExperimentalWarning")  # SB3 ignores it once, at import
-@pytest.mark.parametrize(("collection_steps", "total"), [(64, 128), (None, 100)])
+@pytest.mark.parametrize(
+    ("algo", "extra", "total"),
+    [("ppo", "  n_envs: 4\n  n_steps: 16\n", 128), ("sac", "  train_freq: [1, episode]\n", 100)],
+)
 def test_the_progress_bar_counts_the_steps_learn_trains_whole_collections_included(
-    collection_steps: int | None, total: int
+    tmp_path: Path, algo: str, extra: str, total: int
 ) -> None:
-    bar = WholeCollectionsProgressBar(collection_steps)
+    entry = f"vegym/Projectile-v0:\n  n_timesteps: 1000\n{extra}"
+    config = load_config(write_config(tmp_path, entry, f"{algo}.yml"), "vegym/Projectile-v0")
+    assert config.collection_steps == (64 if algo == "ppo" else None)
+    bar = WholeCollectionsProgressBar(config)
     bar.locals, bar.model = {"total_timesteps": 300}, SimpleNamespace(num_timesteps=200)  # 100 asked for
     bar._on_training_start()
     try:
