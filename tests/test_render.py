@@ -18,7 +18,7 @@ from vegym.envs.base import load_object
 from vegym.render import canvas
 from vegym.render.canvas import pygame
 from vegym.render.gear_train import MOST_TEETH, TOOTH_PITCH, gear_outline
-from vegym.render.projectile import TICK_LABEL_SIZE, side_world
+from vegym.render.projectile import side_world
 from vegym.render.projectile_adjust import beside_clear_of_ring
 
 
@@ -211,7 +211,7 @@ def test_projectile_side_views_number_the_distance_along_the_ground(
     info = env.step(np.zeros(3, np.float32))[-1]
     env.render()
     env.close()
-    marks = [float(lines[0]) for _, lines, _, size, *_ in texts if size == TICK_LABEL_SIZE]
+    marks = [float(lines[0]) for _, lines, _, size, *_ in texts if size == canvas.TICK_LABEL_SIZE]
     step = marks[1] - marks[0]
     assert step in (5.0, 10.0, 20.0) and 0.0 in marks and "-0" not in [lines[0] for _, lines, *_ in texts]
     np.testing.assert_allclose(np.diff(marks), step)
@@ -241,6 +241,40 @@ def test_projectile_adjust_shot_numbers_stay_off_the_hit_ring() -> None:
                 (ring[:, 0] > left) & (ring[:, 0] < left + size[0]) & (ring[:, 1] > top) & (ring[:, 1] < top + size[1])
             )
             assert not inside.any(), (distance, angle)
+
+
+@pytest.mark.parametrize(
+    ("env_id", "seconds", "marked"),
+    [
+        ("vegym/Aircraft-v0", 0.0, (0.0, 300.0)),
+        ("vegym/GearTrain-v0", 0.0, (0.0, 10.0)),
+        ("vegym/PendulumPump-v0", 0.0, (0.0, 40.0)),
+        ("vegym/Thread-v0", 0.0, (0.0, 2.0)),
+        ("vegym/Suspension-v0", 6.5, (2.0, 6.0)),
+    ],
+)
+def test_strip_charts_number_their_time_axis_under_the_lowest_chart(
+    env_id: str, seconds: float, marked: tuple[float, float], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The time axes gave their range in words alone: marks every 1, 2, 5, 10, ... s over the shown window (the
+    episode's planned length, Thread's first 2 s, Suspension's last 5 s), under the lowest chart."""
+    frames = record_calls(monkeypatch, canvas.Panel, "frame")  # (panel, colour)
+    texts = record_calls(monkeypatch, canvas, "text")  # (surface, lines, xy, size, colour)
+    env = gym.make(env_id, render_mode="rgb_array")
+    env.reset(seed=0)
+    for _ in range(round(seconds / env.unwrapped.params.dt)):
+        env.step(np.zeros(env.action_space.shape, np.float32))
+    frames.clear()
+    texts.clear()
+    env.render()
+    env.close()
+    marks = [(float(lines[0]), xy) for _, lines, xy, size, *_ in texts if size == canvas.TICK_LABEL_SIZE]
+    times = np.array([t for t, _ in marks])
+    assert (times[0], times[-1]) == marked
+    np.testing.assert_allclose(np.diff(times), times[1] - times[0])
+    charts = [panel for panel, *_ in frames if panel.rect.left <= marks[0][1][0] + 10 <= panel.rect.right]
+    lowest = max(charts, key=lambda panel: panel.rect.bottom)
+    assert all(lowest.rect.bottom <= y <= lowest.rect.bottom + 5 for _, (_, y) in marks)
 
 
 def test_aircraft_strip_labels_sit_above_their_charts(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -115,18 +115,17 @@ class AircraftRenderer:
                 lo = min(lo, float(value.min()), float(demand.min()))
                 hi = max(hi, float(value.max()), float(demand.max()))
             pad = 0.08 * (hi - lo) if k < 2 else 0.0
-            panel = canvas.Panel(surface, (490, 85 + 145 * k, 395, 120), (0.0, horizon, lo - pad, hi + pad))
+            panel = canvas.Panel(surface, (490, 85 + 140 * k, 395, 112), (0.0, horizon, lo - pad, hi + pad))
             panel.frame(canvas.LIGHT)
             for segment in self._unwrapped_segments(t, demand, k == 2):
                 panel.polyline(segment, canvas.ORANGE, 2)
             for segment in self._unwrapped_segments(t, value, k == 2):
                 panel.polyline(segment, canvas.BLUE, 2)
-            canvas.text(surface, [label], (490, 67 + 145 * k), 16, canvas.GREY)  # above the panel: lines reach its top
-            canvas.text(surface, [f"{hi + pad:.0f}"], (448, 80 + 145 * k), 15, canvas.GREY)
-            canvas.text(surface, [f"{lo - pad:.0f}"], (448, 195 + 145 * k), 15, canvas.GREY)
-        canvas.text(
-            surface, [f"time (s), 0 to {horizon:.0f}; blue: flown, orange: demand"], (490, 500), 16, canvas.GREY
-        )
+            canvas.text(surface, [label], (490, 67 + 140 * k), 16, canvas.GREY)  # above the panel: lines reach its top
+            canvas.text(surface, [f"{hi + pad:.0f}"], (448, 80 + 140 * k), 15, canvas.GREY)
+            canvas.text(surface, [f"{lo - pad:.0f}"], (448, 187 + 140 * k), 15, canvas.GREY)
+        canvas.axis_ticks(surface, panel, 0.0, horizon, lo - pad, 1.0)
+        canvas.text(surface, ["time (s); blue: flown, orange: demand"], (490, 498), 16, canvas.GREY)
 
     @staticmethod
     def _unwrapped_segments(t: np.ndarray, value: np.ndarray, angular: bool) -> list[np.ndarray]:

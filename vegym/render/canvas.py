@@ -208,3 +208,18 @@ def new_surface(width: int, height: int) -> pygame.Surface:
 def to_array(surface: pygame.Surface) -> np.ndarray:
     """The surface as a uint8 (height, width, 3) RGB array."""
     return np.ascontiguousarray(np.transpose(pygame.surfarray.pixels3d(surface), (1, 0, 2)), dtype=np.uint8)
+
+
+TICK_LABEL_SIZE = 13
+"""Font size (px) of the numbers under axis ticks."""
+
+
+def axis_ticks(surface: pygame.Surface, panel: Panel, low: float, high: float, y: float, finest: float) -> None:
+    """Ticks along ``panel``'s horizontal line at height ``y`` (world units) between ``low`` and ``high``: one
+    every ``finest`` or 2, 5, 10, ... times it (at most 10 intervals), each with its number under it."""
+    for x in multiples(low, high, tick_step(high - low, finest, 10)):
+        px, py = panel.to_px(float(x), y)
+        pygame.draw.line(surface, GREY, (px, py), (px, py + 4))
+        label = f"{x + 0.0:g}"  # + 0.0: no "-0"
+        width, _ = text_size([label], TICK_LABEL_SIZE)
+        text(surface, [label], (px - width // 2, py + 2), TICK_LABEL_SIZE, GREY)

@@ -105,7 +105,7 @@ class GearTrainRenderer:
     def _strip(self, surface: Any) -> None:
         p = self.params
         horizon = max(len(self.errors), 2 * p.interval_steps) * p.dt
-        panel = canvas.Panel(surface, (60, 365, WIDTH - 80, 120), (0.0, horizon, -180.0, 180.0))
+        panel = canvas.Panel(surface, (60, 365, WIDTH - 80, 110), (0.0, horizon, -180.0, 180.0))
         panel.frame(canvas.LIGHT)
         panel.line((0.0, 0.0), (horizon, 0.0), canvas.LIGHT)
         for change in np.arange(p.interval_steps, horizon / p.dt, p.interval_steps) * p.dt:
@@ -114,14 +114,9 @@ class GearTrainRenderer:
             t = p.dt * np.arange(1, len(self.errors) + 1)
             panel.polyline(np.stack([t, np.degrees(self.errors)], axis=-1), canvas.BLUE, 2)
         canvas.text(surface, ["+180"], (20, 360), 15, canvas.GREY)
-        canvas.text(surface, ["-180"], (22, 475), 15, canvas.GREY)
-        canvas.text(
-            surface,
-            [f"output error (deg) over time (s), 0 to {horizon:.0f}; dashes: target changes"],
-            (60, 490),
-            16,
-            canvas.GREY,
-        )
+        canvas.text(surface, ["-180"], (22, 465), 15, canvas.GREY)
+        canvas.axis_ticks(surface, panel, 0.0, horizon, -180.0, 1.0)
+        canvas.text(surface, ["output error (deg) over time (s); dashes: target changes"], (60, 496), 16, canvas.GREY)
 
     def _numbers(self, surface: Any, gears: int, changing: bool) -> None:
         s = self.state

@@ -127,7 +127,8 @@ class PendulumPumpRenderer:
         panel.polyline(np.stack([t, np.degrees(self.targets)], -1), canvas.ORANGE, 2)
         panel.polyline(np.stack([t, np.degrees(self.amplitudes)], -1), canvas.BLUE, 2)
         canvas.text(surface, ["amplitude (deg): blue, target: orange", "180"], (540, 50), 16, canvas.GREY)
-        canvas.text(surface, [f"0       time (s), 0 to {horizon:.0f}"], (540, 425), 16, canvas.GREY)
+        canvas.axis_ticks(surface, panel, 0.0, horizon, 0.0, 1.0)
+        canvas.text(surface, ["time (s)"], (540, 440), 16, canvas.GREY)
 
     def _numbers(self, surface: Any) -> None:
         lines = [

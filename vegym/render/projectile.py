@@ -34,22 +34,6 @@ def side_world(
     return min(x) - MARGIN * x_span, max(x) + MARGIN * x_span, -MARGIN * top, top
 
 
-TICK_LABEL_SIZE = 13
-"""Font size (px) of the distance marks along the side view's ground."""
-
-
-def ground_ticks(surface: Any, side: canvas.Panel, left: float, right: float) -> None:
-    """Distance marks along the side view's ground line between ``left`` and ``right`` (m from the launcher): a
-    tick every 1, 2, 5, 10, ... m (at most 10) and its number under the line."""
-    step = canvas.tick_step(right - left, 1.0, 10)
-    for x in canvas.multiples(left, right, step):
-        px, py = side.to_px(float(x), 0.0)
-        canvas.pygame.draw.line(surface, canvas.GREY, (px, py), (px, py + 4))
-        label = f"{x + 0.0:g}"  # + 0.0: no "-0" for the launcher's mark
-        width, _ = canvas.text_size([label], TICK_LABEL_SIZE)
-        canvas.text(surface, [label], (px - width // 2, py + 2), TICK_LABEL_SIZE, canvas.GREY)
-
-
 class ProjectileRenderer:
     """Draws the launcher, the target, the wind and the last shot of a single env.
 
@@ -92,7 +76,7 @@ class ProjectileRenderer:
         for panel in (side, top):
             panel.frame(canvas.LIGHT)
         side.line((left, 0.0), (right, 0.0), canvas.BLACK, 2)
-        ground_ticks(surface, side, left, right)
+        canvas.axis_ticks(surface, side, left, right, 0.0, 1.0)  # m from the launcher
         side.line((0.0, 0.0), (0.0, p0[1]), canvas.BLACK, 4)
         top.line((left, 0.0), (right, 0.0), canvas.LIGHT)
         for panel in (side, top):

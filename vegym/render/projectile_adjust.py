@@ -9,7 +9,7 @@ import numpy as np
 from vegym.envs.projectile import ProjectileTask
 from vegym.envs.projectile_adjust import ProjectileAdjustParams
 from vegym.render import canvas, clock
-from vegym.render.projectile import ground_ticks, shot_path, side_world
+from vegym.render.projectile import shot_path, side_world
 
 WIDTH, HEIGHT = 760, 440
 _TEXT_LINES = 4
@@ -64,7 +64,7 @@ class ProjectileAdjustRenderer:
         side.frame(canvas.LIGHT)
         top.frame(canvas.LIGHT)
         side.line((left, 0.0), (right, 0.0), canvas.BLACK, 2)
-        ground_ticks(surface, side, left, right)
+        canvas.axis_ticks(surface, side, left, right, 0.0, 1.0)  # m from the launcher
         side.line((0.0, 0.0), (0.0, p0[1]), canvas.BLACK, 4)
         side.line((distance - p.hit_radius, 0.0), (distance + p.hit_radius, 0.0), canvas.RED, 5)
         top.line((-zoom, 0.0), (zoom, 0.0), canvas.LIGHT)

@@ -133,7 +133,8 @@ class SuspensionRenderer:
             canvas.text(surface, [label], (505, 80 + 200 * k), 16, canvas.GREY)
             canvas.text(surface, [f"{scale:+.3g}"], (509, 103 + 200 * k), 15, canvas.GREY)
             canvas.text(surface, [f"{-scale:+.3g}"], (509, 245 + 200 * k), 15, canvas.GREY)
-        canvas.text(surface, [f"time (s), last {HISTORY:.0f} s"], (505, 465), 16, canvas.GREY)
+        canvas.axis_ticks(surface, panel, start, start + HISTORY, -scale, 1.0)
+        canvas.text(surface, [f"time (s), the last {HISTORY:.0f} s"], (505, 482), 16, canvas.GREY)
 
     def _numbers(self, surface: Any) -> None:
         p = self.params

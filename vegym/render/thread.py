@@ -91,7 +91,7 @@ class ThreadRenderer:
         horizon = max(HORIZON, self.times[-1])
         t = np.array(self.times)
         logs = np.log10(np.clip(self.fractions, 10.0**LOG_FLOOR, None))
-        panel = canvas.Panel(surface, (60, 420, 800, 110), (0.0, horizon, LOG_FLOOR, 0.5))
+        panel = canvas.Panel(surface, (60, 420, 800, 100), (0.0, horizon, LOG_FLOOR, 0.5))
         panel.frame(canvas.LIGHT)
         for decade in range(int(LOG_FLOOR), 1):
             panel.line((0.0, decade), (horizon, decade), canvas.LIGHT)
@@ -108,7 +108,8 @@ class ThreadRenderer:
         for decade in range(int(LOG_FLOOR), 1):
             _, y = panel.to_px(0.0, decade)
             canvas.text(surface, [f"1e{decade}" if decade else "1"], (22, y - 6), 15, canvas.GREY)
-        canvas.text(surface, [f"time (s), 0 to {horizon:.1f}"], (60, 535), 16, canvas.GREY)
+        canvas.axis_ticks(surface, panel, 0.0, horizon, LOG_FLOOR, 0.1)
+        canvas.text(surface, ["time (s)"], (60, 538), 16, canvas.GREY)
 
     def _numbers(self, surface: Any) -> None:
         line = f"t = {self.times[-1]:.2f} s   energy left {self.fractions[-1]:.2%}   return {self.total_reward:+.3f}"
