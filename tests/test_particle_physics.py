@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import subprocess
+import sys
+
 import numpy as np
 import pytest
 
@@ -140,6 +143,56 @@ def test_event_step_rejects_a_start_below_the_ground_and_a_rest_speed_that_never
         particle.event_step(np.array([0.05]), np.array([0.0]), 0.1, 1.0, ParticleParams(radius=0.1))
     with pytest.raises(ValueError, match=r"rest_speed=0.0 is outside the allowed range \(0, inf\)"):
         particle.event_step(np.array([0.1]), np.array([0.0]), 0.1, 0.8, ParticleParams(radius=0.1), rest_speed=0.0)
+
+
+@pytest.mark.parametrize(
+    ("h", "v", "dt", "e", "message"),
+    [
+        (1.0, np.nan, 0.1, 0.8, "v must be finite, got nan"),
+        (np.inf, 0.0, 0.1, 0.8, "h must be finite, got inf"),
+        (1.0, 0.0, 0.1, np.nan, "restitution must be finite, got nan"),
+        (1.0, 0.0, 0.1, 1.5, r"restitution=1.5 is outside the allowed range \[0, 1\]"),
+        (1.0, 0.0, np.inf, 0.8, r"dt=inf is outside the allowed range \[0, inf\) s"),
+        (1.0, 0.0, -0.1, 0.8, r"dt=-0.1 is outside the allowed range \[0, inf\) s"),
+    ],
+)
+def test_event_step_refuses_input_it_cannot_step(h: float, v: float, dt: float, e: float, message: str) -> None:
+    """A NaN restitution re-landed the particle forever; the others had no meaning."""
+    with pytest.raises(ValueError, match=message):
+        particle.event_step(np.array([h]), np.array([v]), dt, e, ParticleParams())
+
+
+def test_event_step_with_e_one_over_a_long_span_is_the_periodic_closed_form() -> None:
+    params = ParticleParams(gravity=G, radius=0.0)
+    period = 2.0 * np.sqrt(2.0 * 3.0 / G)  # dropped from 3 m: at the apex again every period
+    for span in (1e4, 12345.678):
+        h, v = particle.event_step(np.array([3.0]), np.array([0.0]), span, 1.0, params)
+        phase = np.fmod(span, period)
+        fall = phase if phase <= period / 2 else period - phase  # time from the nearest apex
+        assert h[0] == pytest.approx(3.0 - 0.5 * G * fall**2, abs=1e-9)
+        assert abs(v[0]) == pytest.approx(G * fall, abs=1e-9)
+
+
+@pytest.mark.parametrize(
+    ("h", "v", "dt", "e", "rest_speed"),
+    [
+        (0.0, -1e-19, 0.01, 1.0, 1e-20),  # bounces far shorter than an ulp of the time left
+        (1e-30, 0.0, 0.01, 1.0, 1e-20),
+        (0.0, -1.0001e-6, 1e9, 1.0, 1e-6),  # 2e15 bounces of 0.2 us
+        (0.0, 1.0, 2.0 / (G * 1e-9) * 1.0000001, 1.0 - 1e-9, 1e-300),  # longer than its 2e11 bounces together
+    ],
+)
+def test_event_step_returns_however_many_bounces_the_step_holds(
+    h: float, v: float, dt: float, e: float, rest_speed: float
+) -> None:
+    """These looped forever (or for days): the bounces after a rebound now follow in closed form."""
+    code = (
+        "import numpy as np; from vegym.physics import particle; from vegym.physics.particle import ParticleParams;"
+        f"print(particle.event_step(np.array([{h!r}]), np.array([{v!r}]), {dt!r}, {e!r},"
+        f" ParticleParams(gravity={G!r}, radius=0.0), rest_speed={rest_speed!r}))"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
 
 
 def test_event_step_ending_ulps_short_of_a_contact_stays_on_the_ground_and_bounces_next_step() -> None:

@@ -153,13 +153,23 @@ def event_step(
 
     The clean event-exact step of PHYSICS.md section 1: fly to the contact, apply ``v = -e * v_g``, fly
     on with the rest of the step, repeat. A rebound slower than ``rest_speed`` (m/s) leaves the particle
-    at rest on the ground (the Zeno guard: infinitely many bounces in finite time). The result does not
-    depend on how a time span is split into steps. ``h >= radius`` and ``rest_speed > 0`` are required; a
-    particle on the ground moving down bounces (with ``v = 0``, it rests).
+    at rest on the ground (the Zeno guard: infinitely many bounces in finite time). After a rebound at u the
+    later bounces follow in closed form, so the loop never runs on bounces that cannot change the result: with
+    e < 1 they all end within ``2 u / (g (1 - e))`` (a step at least that long leaves the particle at rest),
+    with e = 1 each lasts ``2 u / g`` (whole ones are skipped). The result does not depend on how a time span
+    is split into steps. Finite ``h >= radius`` and ``v``, e in [0, 1], a finite ``dt >= 0`` and
+    ``rest_speed > 0`` are required; a particle on the ground moving down bounces (with ``v = 0``, it rests).
     """
     h = np.array(h, dtype=np.float64, copy=True)
     v = np.array(v, dtype=np.float64, copy=True)
     e = np.broadcast_to(np.asarray(restitution, dtype=np.float64), h.shape)
+    for name, values in (("h", h), ("v", v), ("restitution", e)):
+        if not np.all(np.isfinite(values)):
+            raise ValueError(f"{name} must be finite, got {float(values[~np.isfinite(values)][0])!r}")
+    if np.any((e < 0.0) | (e > 1.0)):
+        raise ValueError(f"restitution={float(e[(e < 0.0) | (e > 1.0)][0])!r} is outside the allowed range [0, 1]")
+    if not (math.isfinite(dt) and dt >= 0.0):
+        raise ValueError(f"dt={dt!r} is outside the allowed range [0, inf) s")
     if not rest_speed > 0.0:  # a bounce that never stops rebounding loops forever (Zeno)
         raise ValueError(f"rest_speed={rest_speed!r} is outside the allowed range (0, inf) m/s")
     if np.any(h < params.radius):
@@ -178,7 +188,10 @@ def event_step(
         t_left = np.where(lands, t_left - tg, t_left)
         h = np.where(lands, r, h)
         v = np.where(lands, rebound, v)
-        stops = lands & (rebound < rest_speed)
+        settles = (e < 1.0) & (t_left * g * (1.0 - e) >= 2.0 * rebound)  # every later bounce ends in the step
+        stops = lands & ((rebound < rest_speed) | settles)
+        period = 2.0 * rebound / g
+        np.fmod(t_left, period, out=t_left, where=lands & (e == 1.0) & (period > 0.0))
         v = np.where(stops, 0.0, v)
         active = lands & ~stops
     return h, v
