@@ -25,6 +25,7 @@ import fcntl
 import logging
 import multiprocessing as mp
 import os
+import re
 import signal
 import sys
 import tempfile
@@ -129,11 +130,24 @@ def default_storage(study: str) -> str:
 
 
 def shown_storage(url: str) -> str:
-    """``url`` as printed: its password, if any, masked as ``***``."""
+    """``url`` as printed: its password, in the user part or as a ``password=`` query parameter, masked as
+    ``***``."""
     try:
-        return make_url(url).render_as_string(hide_password=True)
+        shown = make_url(url).render_as_string(hide_password=True)
     except sqlalchemy.exc.ArgumentError:
-        return url
+        shown = url
+    return re.sub(r"([?&]password=)[^&]*", r"\1***", shown, flags=re.IGNORECASE)
+
+
+UNOPENABLE = (sqlalchemy.exc.OperationalError, optuna.exceptions.StorageInternalError)
+"""What the storage raises for a database it cannot reach or write: SQLAlchemy's, or Optuna's around it."""
+
+
+def _cannot_open(url: str, error: Exception) -> ValueError:
+    """The error of a storage that cannot be opened, with the driver's reason on one line."""
+    cause = error.__cause__ if isinstance(error, optuna.exceptions.StorageInternalError) else error
+    reason = getattr(cause, "orig", None) or cause or error
+    return ValueError(f"--storage {shown_storage(url)!r}: cannot open the database: {' '.join(str(reason).split())}")
 
 
 def check_storage(url: str) -> None:
@@ -181,9 +195,8 @@ def open_storage(url: str, heartbeat: int, attempts: int = 3) -> RDBStorage:
             raise
         time.sleep(1.0)  # another process was creating the tables of this new storage at the same moment
         return open_storage(url, heartbeat, attempts - 1)
-    except sqlalchemy.exc.OperationalError as exc:
-        reason = " ".join(str(exc.orig).split())  # the driver's message, on one line
-        raise ValueError(f"--storage {shown_storage(url)!r}: cannot open the database: {reason}") from None
+    except UNOPENABLE as exc:
+        raise _cannot_open(url, exc) from None
 
 
 class StudyLock:
@@ -360,19 +373,22 @@ def load_study(settings: SweepSettings) -> optuna.Study:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
         sampler = optuna.samplers.TPESampler(constant_liar=True)  # running trials steer parallel workers apart
-    study = optuna.create_study(
-        study_name=settings.study,
-        storage=storage,
-        direction="maximize",
-        load_if_exists=True,
-        sampler=sampler,
-        pruner=optuna.pruners.MedianPruner(n_startup_trials=5, n_warmup_steps=0),
-    )
     wanted = settings.study_attrs()
-    stored = study.user_attrs.get("vegym")
-    if stored is None:
-        study.set_user_attr("vegym", wanted)
-    elif stored != wanted:
+    try:  # the first writes: a database that opens may still refuse them (a read-only file)
+        study = optuna.create_study(
+            study_name=settings.study,
+            storage=storage,
+            direction="maximize",
+            load_if_exists=True,
+            sampler=sampler,
+            pruner=optuna.pruners.MedianPruner(n_startup_trials=5, n_warmup_steps=0),
+        )
+        stored = study.user_attrs.get("vegym")
+        if stored is None:
+            study.set_user_attr("vegym", wanted)
+    except UNOPENABLE as exc:
+        raise _cannot_open(settings.storage, exc) from None
+    if stored is not None and stored != wanted:
         raise ValueError(
             f"study {settings.study!r} in {shown_storage(settings.storage)} was created for {stored}, not {wanted}"
         )

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import optuna
 import pytest
+import sqlalchemy
 from optuna.storages import RetryHeartbeatStaleTrialCallback
 from optuna.storages._heartbeat import HeartbeatThread
 from optuna.trial import TrialState
@@ -315,6 +316,7 @@ def test_a_storage_that_cannot_be_opened_is_one_clear_error_that_masks_the_passw
     base = ["sweep", "--env", "BouncingBall-v0", "--algo", "td3", "--trials", "1"]
     for storage, shown in [
         ("postgresql://user:secret@127.0.0.1:1/db", "'postgresql://user:***@127.0.0.1:1/db'"),  # nothing listens
+        ("postgresql://127.0.0.1:1/db?password=secret", "'postgresql://127.0.0.1:1/db?password=***'"),
         ("sqlite:////proc/study.db", "'sqlite:////proc/study.db'"),
     ]:
         assert main([*base, "--storage", storage]) == 2
@@ -323,6 +325,26 @@ def test_a_storage_that_cannot_be_opened_is_one_clear_error_that_masks_the_passw
         assert "secret" not in out and "study " not in out  # nor is the study announced before it opens
     assert main([*base, "--storage", "sqlite:////proc/vegym/study.db"]) == 2
     assert capsys.readouterr().out.startswith("error: --storage 'sqlite:////proc/vegym/study.db': cannot create")
+
+
+def test_a_storage_that_opens_but_refuses_the_study_s_first_write_is_one_clear_error(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A read-only SQLite file opens (reading its tables) and fails at the study's creation, which raised Optuna's
+    StorageInternalError with its traceback."""
+
+    def read_only(**kwargs: object) -> optuna.Study:
+        refusal = sqlite3.OperationalError("attempt to write a readonly database")
+        try:
+            raise sqlalchemy.exc.OperationalError("INSERT INTO studies", {}, refusal)
+        except sqlalchemy.exc.OperationalError as error:
+            raise optuna.exceptions.StorageInternalError("An exception is raised during the commit.") from error
+
+    monkeypatch.setattr(optuna, "create_study", read_only)
+    storage = f"sqlite:///{tmp_path / 'study.db'}"
+    assert main(["sweep", "--env", "BouncingBall-v0", "--algo", "td3", "--trials", "1", "--storage", storage]) == 2
+    expected = f"error: --storage {storage!r}: cannot open the database: attempt to write a readonly database\n"
+    assert capsys.readouterr().out == expected
 
 
 def test_an_env_without_a_config_entry_is_refused_before_the_study_is_created(
