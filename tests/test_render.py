@@ -277,6 +277,17 @@ def test_strip_charts_number_their_time_axis_under_the_lowest_chart(
     assert all(lowest.rect.bottom <= y <= lowest.rect.bottom + 5 for _, (_, y) in marks)
 
 
+def test_a_long_time_axis_numbers_its_marks_in_full(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A 1e6 s episode ended its axis on "1e+06" beside "900000"."""
+    texts = record_calls(monkeypatch, canvas, "text")  # (surface, lines, xy, size, colour)
+    env = gym.make("vegym/Aircraft-v0", render_mode="rgb_array", dt=10.0, episode_steps=100_000)
+    env.reset(seed=0)
+    env.render()
+    env.close()
+    marks = [lines[0] for _, lines, _, size, *_ in texts if size == canvas.TICK_LABEL_SIZE]
+    assert marks[-2:] == ["900000", "1000000"]
+
+
 def test_aircraft_strip_labels_sit_above_their_charts(monkeypatch: pytest.MonkeyPatch) -> None:
     """Written inside the charts' top-left corners, the labels were crossed by a heading near +180 deg (the chart's
     top, unpadded) or by an altitude or airspeed near its largest value."""

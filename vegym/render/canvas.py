@@ -220,6 +220,6 @@ def axis_ticks(surface: pygame.Surface, panel: Panel, low: float, high: float, y
     for x in multiples(low, high, tick_step(high - low, finest, 10)):
         px, py = panel.to_px(float(x), y)
         pygame.draw.line(surface, GREY, (px, py), (px, py + 4))
-        label = f"{x + 0.0:g}"  # + 0.0: no "-0"
+        label = f"{x + 0.0:.10g}"  # + 0.0: no "-0"; 10 digits: 1000000 beside 900000, not 1e+06
         width, _ = text_size([label], TICK_LABEL_SIZE)
         text(surface, [label], (px - width // 2, py + 2), TICK_LABEL_SIZE, GREY)
