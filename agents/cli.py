@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import math
 import os
 import shlex
 import sys
@@ -21,7 +20,7 @@ from rich.table import Table
 from rich.text import Text
 
 import vegym
-from agents.config import ALGOS, CONFIG_DIR, ConfigError, TrainConfig, load_config, make_kwargs
+from agents.config import ALGOS, CONFIG_DIR, ConfigError, TrainConfig, load_config, make_kwargs, whole_number
 from agents.evaluation import (
     EVAL_SEED,
     REFERENCE_AGENTS,
@@ -44,17 +43,10 @@ def say(message: str, style: str | None = None) -> None:
 
 def _integer(text: str) -> int:
     """An integer, also written as a float without a fraction (1e5), as the configs take one."""
-    try:
-        return int(text)
-    except ValueError:
-        pass
-    try:
-        number = float(text)
-    except ValueError:
-        number = math.nan
-    if not math.isfinite(number) or number != int(number):
+    number = whole_number(text)
+    if number is None:
         raise argparse.ArgumentTypeError(f"{text!r} is not an integer")
-    return int(number)
+    return number
 
 
 def _positive(text: str) -> int:

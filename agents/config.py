@@ -228,6 +228,24 @@ def _members(hint: Any) -> tuple[Any, ...]:
     return (hint,)
 
 
+def whole_number(value: Any) -> int | None:
+    """``value`` as an int if it is one, or a float or a string holding an integer, also one written as a float
+    without a fraction (``1e5``); else None (bools too). Integers and integer strings are read exactly."""
+    if isinstance(value, bool):
+        return None
+    if isinstance(value, int):
+        return value
+    if isinstance(value, str):
+        try:
+            return int(value)
+        except ValueError:
+            pass
+    number = _number(value)
+    if number is None or not math.isfinite(number) or number != int(number):
+        return None
+    return int(number)
+
+
 def _number(value: Any) -> float | None:
     """``value`` as a float if it is a number or a string holding one (not a bool), else None."""
     if isinstance(value, bool):
@@ -267,10 +285,10 @@ def coerce(value: Any, hint: Any, where: str) -> Any:
             raise ConfigError(f"{where}: {value!r} is not a bool (true or false)")
         return value
     if hint is int:
-        number = _number(value)
-        if number is None or not math.isfinite(number) or number != int(number):
+        number = whole_number(value)
+        if number is None:
             raise ConfigError(f"{where}: {value!r} is not an integer")
-        return int(number)
+        return number
     if hint is float:
         number = _number(value)
         if number is None or math.isnan(number):

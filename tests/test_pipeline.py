@@ -36,6 +36,7 @@ from agents.config import (
     SCHEDULE_PREFIX,
     ConfigError,
     LinearDecay,
+    coerce,
     load_config,
     load_configs,
     load_resolved,
@@ -1135,6 +1136,10 @@ def test_a_non_integer_count_is_a_clear_argument_error(
 def test_counts_take_integers_written_as_floats_as_the_configs_do() -> None:
     args = build_parser().parse_args(["train", "--env", "Projectile-v0", "--algo", "ppo", "--timesteps", "1e5"])
     assert args.timesteps == 100000 and isinstance(args.timesteps, int)
+    big = 2**60 + 1  # past float's 53 bits: read exactly, not through a float
+    seeded = build_parser().parse_args(["train", "--env", "Projectile-v0", "--algo", "ppo", "--seed", str(big)])
+    assert seeded.seed == big
+    assert coerce(big, int, "seed") == big and coerce("1e5", int, "n_timesteps") == 100000
 
 
 def test_bad_input_is_a_clear_error(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
