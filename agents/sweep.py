@@ -131,11 +131,9 @@ def default_storage(study: str) -> str:
 
 def shown_storage(url: str) -> str:
     """``url`` as printed: its password, in the user part or as a ``password=`` query parameter, masked as
-    ``***``."""
-    try:
-        shown = make_url(url).render_as_string(hide_password=True)
-    except sqlalchemy.exc.ArgumentError:
-        shown = url
+    ``***``. The user part's password runs to the last ``@`` before the query: SQLAlchemy ends it at the first,
+    so an unescaped ``@`` in a password would leave the rest of it shown as the host."""
+    shown = re.sub(r"^([\w+.-]+://[^:/@?]*:)[^?]*@", r"\1***@", url)
     return re.sub(r"([?&]password=)[^&]*", r"\1***", shown, flags=re.IGNORECASE)
 
 

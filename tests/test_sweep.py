@@ -22,7 +22,7 @@ from optuna.trial import TrialState
 from agents import sweep as sweep_module
 from agents.cli import main
 from agents.config import CONFIG_DIR, load_config, load_configs, with_overrides
-from agents.sweep import SweepSettings, parse_tune_env, run_worker, sample_hyperparams
+from agents.sweep import SweepSettings, parse_tune_env, run_worker, sample_hyperparams, shown_storage
 from agents.training import TrainResult
 
 VEGYM = [sys.executable, "-c", "import sys; from agents.cli import main; sys.exit(main())"]
@@ -325,6 +325,18 @@ def test_a_storage_that_cannot_be_opened_is_one_clear_error_that_masks_the_passw
         assert "secret" not in out and "study " not in out  # nor is the study announced before it opens
     assert main([*base, "--storage", "sqlite:////proc/vegym/study.db"]) == 2
     assert capsys.readouterr().out.startswith("error: --storage 'sqlite:////proc/vegym/study.db': cannot create")
+
+
+def test_a_printed_storage_url_masks_the_whole_password_even_with_an_unescaped_at_sign() -> None:
+    """SQLAlchemy ends the password at its first ``@`` and reads the rest as the host, which it would show."""
+    for url, shown in [
+        ("postgresql://user:secret@db.example:5432/study", "postgresql://user:***@db.example:5432/study"),
+        ("postgresql://user:se@c/r@et@db.example/study", "postgresql://user:***@db.example/study"),
+        ("postgresql+psycopg2://u:p@h/db?password=secret&x=1", "postgresql+psycopg2://u:***@h/db?password=***&x=1"),
+        ("postgresql://user@db.example:5432/study", "postgresql://user@db.example:5432/study"),
+        ("sqlite:////tmp/a@b/study.db", "sqlite:////tmp/a@b/study.db"),
+    ]:
+        assert shown_storage(url) == shown
 
 
 def test_a_storage_that_opens_but_refuses_the_study_s_first_write_is_one_clear_error(
