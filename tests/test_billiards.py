@@ -203,3 +203,11 @@ def test_the_observation_space_is_the_documented_box_and_equal_range_ends_are_va
     np.testing.assert_array_equal(space.high, [1, 1, 1, 1])
     BilliardsParams(ball_distance_min=0.8, ball_distance_max=0.8)
     BilliardsParams(target_distance_min=0.6, target_distance_max=0.6)
+
+
+def test_observations_stay_in_the_box_when_the_target_is_nanometres_from_b() -> None:
+    """The target's distance is found from coordinates of metres: 67 of 3,000 episodes at 1 nm observed 1.0000001."""
+    env = gym.make(ENV_ID, target_distance_min=1e-9, target_distance_max=1e-9)
+    for seed in range(150, 450):
+        obs, _ = env.reset(seed=seed)
+        assert env.observation_space.contains(obs), (seed, obs)

@@ -319,10 +319,11 @@ def _observe(ball_a: np.ndarray, ball_b: np.ndarray, target: np.ndarray, c: np.n
         along_x, along_z = ox / distance, oz / distance
         tx, tz = t[2 * i] - b[2 * i], t[2 * i + 1] - b[2 * i + 1]
         target_distance = math.sqrt(tx * tx + tz * tz)
-        o[4 * i] = distance / ball_distance_max
-        o[4 * i + 1] = target_distance / target_distance_max
-        o[4 * i + 2] = (tx * -along_z + tz * along_x) / target_distance
-        o[4 * i + 3] = (tx * along_x + tz * along_z) / target_distance
+        # held to the box against rounding: a target nanometres from B is found from coordinates of metres
+        o[4 * i] = min(distance / ball_distance_max, 1.0)
+        o[4 * i + 1] = min(target_distance / target_distance_max, 1.0)
+        o[4 * i + 2] = min(max((tx * -along_z + tz * along_x) / target_distance, -1.0), 1.0)
+        o[4 * i + 3] = min(max((tx * along_x + tz * along_z) / target_distance, 0.0), 1.0)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
