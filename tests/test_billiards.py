@@ -105,6 +105,8 @@ def test_every_episode_is_reachable_and_the_speed_envelope_is_enforced() -> None
         BilliardsParams(speed_max=2.0)
     with pytest.raises(ValueError, match=r"speed_max=3.0 is outside .*restitution=0.3"):  # the parameter passed
         BilliardsParams(restitution=0.3)
+    with pytest.raises(ValueError, match=r"speed_max=3.0 is outside .*ball_distance_max=20,"):
+        BilliardsParams(ball_distance_max=20.0)
     with pytest.raises(ValueError, match="ball_distance_min"):
         BilliardsParams(ball_distance_min=0.05)
     limit = float(np.arccos(p.contact_distance / p.ball_distance_min))  # 1.379: B nearest, cut at 90 degrees

@@ -203,6 +203,7 @@ def test_a_soft_damper_on_a_resonant_road_hits_the_bump_stop_and_pays_for_the_re
     ("kwargs", "name"),
     [
         ({"modulus": 1000.0}, "modulus"),
+        ({"gravity": 98.1}, r"modulus=8000.0 is outside .*\(mass \* gravity = 300 \* 98.1"),  # names the one passed
         ({"damping_min": 5000.0}, "damping_min"),
         ({"slope_min": 0.02}, "slope_min"),
         ({"wavelength_min": 40.0}, "wavelength_min"),

@@ -63,8 +63,10 @@ class BilliardsParams(Params):
                 self.speed_max,
                 f"[required_speed={self.required_speed:.4g}, inf): the strike the farthest target at bearing_max needs "
                 f"(with restitution={self.restitution:g}, mass_a={self.mass_a:g}, mass_b={self.mass_b:g}, "
-                f"deceleration={self.deceleration:g}, target_distance_max={self.target_distance_max:g}, "
-                f"bearing_max={self.bearing_max:g}); raise speed_max or ease those",
+                f"radius_a={self.radius_a:g}, radius_b={self.radius_b:g}, deceleration={self.deceleration:g}, "
+                f"ball_distance_min={self.ball_distance_min:g}, ball_distance_max={self.ball_distance_max:g}, "
+                f"target_distance_max={self.target_distance_max:g}, bearing_max={self.bearing_max:g}); raise "
+                "speed_max or ease those",
             )
 
     @property

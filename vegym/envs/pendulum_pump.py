@@ -51,10 +51,13 @@ class PendulumPumpParams(ScheduledParams, Params):
         _ = self.schedule  # raises ValueError if change_interval_min or final_hold is out of range
         stable = self.physics.max_stable_step()
         if self.step_length >= stable:  # semi-implicit Euler is unstable at steps of ``stable`` and longer
+            pendulum = f"length={self.length:g}, mass={self.mass:g}, gravity={self.gravity:g}, damping={self.damping:g}"
             if self.dt >= 1000 * stable:
-                raise invalid("dt", self.dt, f"(0, 1000 substeps x {stable:.4g} s) for this pendulum's stable step")
+                allowed = f"(0, 1000 substeps x {stable:.4g} s), the stable step of the pendulum of {pendulum}"
+                raise invalid("dt", self.dt, allowed)
             fewest = math.floor(self.dt / stable) + 1
-            raise invalid("substeps", self.substeps, f"[{fewest}, 1000] for dt={self.dt} (stable step {stable:.4g} s)")
+            allowed = f"[{fewest}, 1000] for dt={self.dt} (stable step {stable:.4g} s, for {pendulum})"
+            raise invalid("substeps", self.substeps, allowed)
 
     @property
     def physics(self) -> PendulumParams:
