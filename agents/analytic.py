@@ -411,9 +411,9 @@ class ThreadVelocityFeedback(AnalyticController):
     gain is near critical damping of the slowest mode, ``c_fb = 2 m omega_1`` (omega_1 from the rest shape's
     stiffness), capped at ``m / (4 dt)`` (``c_fb dt / m = 1/4``, the cap at the defaults), half the gain at which
     the feedback, held over a control step, stops settling the thread: at the defaults that limit lies between
-    ``c_fb dt / m = 0.5`` and ``0.6`` (measured, ``tests/test_thread.py``), not at PHYSICS.md's 1, since the fast
+    ``c_fb dt / m = 0.5`` and ``0.55`` (measured, ``tests/test_thread.py``), not at PHYSICS.md's 1, since the fast
     modes turn by up to ``2 sqrt(S/m) dt`` = 2.8 rad in a step. Twice the default gain settles faster (return
-    -0.089 against -0.115 on the first 20 plucks) with no margin left.
+    -0.088 against -0.114 on the first 20 plucks) with no margin left.
     """
 
     task_cls = ThreadTask
