@@ -146,6 +146,14 @@ def test_same_seed_gives_identical_rollouts(env_id: str) -> None:
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)
+def test_a_seeded_reset_of_a_used_env_replays_a_fresh_env_s_rollout(env_id: str) -> None:
+    used = gym.make(env_id)
+    rollout(used, random_actions(env_id, 37, seed=2), seed=1)  # ends mid-episode in the long-episode envs
+    actions = random_actions(env_id, 60, seed=3)
+    assert_same(rollout(used, actions, seed=7), rollout(gym.make(env_id), actions, seed=7))
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
 def test_pickled_env_continues_identically(env_id: str) -> None:
     env = gym.make(env_id)
     actions = random_actions(env_id, 40, seed=2)
@@ -339,6 +347,26 @@ def test_vector_env_matches_single_envs_including_mixed_resets(env_id: str) -> N
         fresh = gym.make(env_id)
         fresh.reset(seed=seed + i)
         assert_same(fresh.reset()[0], obs[i])
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_a_seeded_vector_reset_drops_the_autoresets_that_were_due(env_id: str) -> None:
+    """After every sub-env's episode has ended, ``reset(seed=s)`` starts sub-env i's episode of seed s + i and the
+    next step steps it, as a single env's, rather than spending the step on the autoreset that was due."""
+    n = 3
+    vec = gym.make_vec(env_id, num_envs=n, vectorization_mode="vector_entry_point", max_episode_steps=1)
+    first, then = random_actions(env_id, 2 * n, seed=4).reshape(2, n, -1)
+    vec.reset(seed=0)
+    _, _, terminated, truncated, _ = vec.step(first)
+    assert (terminated | truncated).all()
+    obs, _ = vec.reset(seed=10)
+    stepped = vec.step(then)
+    for i in range(n):
+        single = gym.make(env_id, max_episode_steps=1)
+        assert_same(single.reset(seed=10 + i)[0], obs[i])
+        s_obs, s_reward, s_terminated, s_truncated, _ = single.step(then[i])
+        assert_same(s_obs, stepped[0][i])
+        assert (s_reward, s_terminated, s_truncated) == (stepped[1][i], stepped[2][i], stepped[3][i])
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)

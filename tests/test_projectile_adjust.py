@@ -94,9 +94,11 @@ def test_the_observation_lists_the_newest_shots_first_and_the_episode_ends_on_a_
     obs = task.observation(state)
     np.testing.assert_array_equal(obs[:, 2:], 0.0)
     actions = [np.array([[0.2, 0.1, 0.5], [0.5, 1.0, 1.0]]), np.array([[0.3, -0.1, 0.4], [0.5, 1.0, 1.0]])]
+    newest = []  # each shot's slot as first shown
     for k, action in enumerate(actions):
         state, out, info = task.transition(state, action)
         obs = out["obs"]
+        newest.append(obs[:, 3:9].copy())
         np.testing.assert_allclose(obs[:, 2], (k + 1) / 4)
         np.testing.assert_array_equal(obs[:, 3:].reshape(2, 3, 6)[:, :, 0], [[1.0] * (k + 1) + [0.0] * (2 - k)] * 2)
         np.testing.assert_allclose(obs[:, 6:9], action, rtol=1e-7)  # the newest shot's actions
@@ -105,9 +107,12 @@ def test_the_observation_lists_the_newest_shots_first_and_the_episode_ends_on_a_
         np.testing.assert_allclose(observed_miss(obs[:, 4:6], p), miss, rtol=1e-5, atol=1e-5)  # float32 entries
         assert not out["terminated"].any()
     np.testing.assert_allclose(obs[:, 12:15], actions[0], rtol=1e-7)  # the older one moved down a slot
+    np.testing.assert_array_equal(obs[:, 9:15], newest[0])
+    np.testing.assert_array_equal(obs[:, 15:21], 0.0)  # the slot of no shot yet: flag and entries 0
     assert 0.7 < obs[1, 5] < 0.8  # 45 degrees up, square to the line of fire: ~90 m off, 3 miss_scales, told apart
-    for _ in range(2):
-        state, out, _ = task.transition(state, actions[1])
+    state, out, _ = task.transition(state, actions[1])
+    np.testing.assert_array_equal(out["obs"][:, 9:21], np.concatenate(newest[::-1], axis=1))  # each down a slot
+    state, out, _ = task.transition(state, actions[1])
     assert out["terminated"].all() and task.observation_space.contains(task.observation(state)[0])
     with pytest.raises(ValueError, match=r"wind_speed_max=0.0 is outside the allowed range \(0, inf\)"):
         ProjectileAdjustParams(wind_speed_max=0.0)
