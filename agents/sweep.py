@@ -131,9 +131,10 @@ def default_storage(study: str) -> str:
 
 def shown_storage(url: str) -> str:
     """``url`` as printed: its password, in the user part or as a ``password=`` query parameter, masked as
-    ``***``. The user part's password runs to the last ``@`` before the query: SQLAlchemy ends it at the first,
-    so an unescaped ``@`` in a password would leave the rest of it shown as the host."""
-    shown = re.sub(r"^([\w+.-]+://[^:/@?]*:)[^?]*@", r"\1***@", url)
+    ``***``. The user part's password runs to the last ``@`` before the query, or to the last ``@`` of all where
+    none comes before a ``?``: SQLAlchemy ends it at the first ``@`` (an unescaped ``@`` in a password would leave
+    the rest of it shown as the host) and lets it hold a ``?``."""
+    shown = re.sub(r"^([\w+.-]+://[^:/@?]*:)(?:[^?]*|.*)@", r"\1***@", url)
     return re.sub(r"([?&]password=)[^&]*", r"\1***", shown, flags=re.IGNORECASE)
 
 

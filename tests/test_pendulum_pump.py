@@ -172,7 +172,7 @@ def test_the_step_writes_the_observation_of_its_state_bit_for_bit_target_changes
         ({"change_interval_min": 30.0}, "change_interval_min"),
         ({"final_hold": 50.0}, "final_hold"),
         ({"dt": 4.0, "change_interval_min": 20.0, "final_hold": 4.0}, r"substeps=5 is outside .* \[7, 1000\]"),
-        ({"length": 1e-4}, r"dt=0.05 is outside .* length=0.0001,"),  # no substeps count is stable: the step is
+        ({"length": 1e-4}, r"dt=0.05 is outside .* length=0.0001,"),  # no substeps count is stable: dt is to blame
         ({"length": 1e-7}, r"dt=0.05 is outside"),  # the stable step's formula used to cancel to 0 here
         ({"damping": 1e9}, r"dt=0.05 is outside"),
         ({"damping": 1e200}, r"dt=0.05 is outside"),  # its square overflows: the stable step is 0, not NaN

@@ -328,10 +328,14 @@ def test_a_storage_that_cannot_be_opened_is_one_clear_error_that_masks_the_passw
 
 
 def test_a_printed_storage_url_masks_the_whole_password_even_with_an_unescaped_at_sign() -> None:
-    """SQLAlchemy ends the password at its first ``@`` and reads the rest as the host, which it would show."""
+    """SQLAlchemy ends the password at its first ``@`` and reads the rest as the host, which it would show; a
+    password may hold a ``?`` too."""
     for url, shown in [
         ("postgresql://user:secret@db.example:5432/study", "postgresql://user:***@db.example:5432/study"),
         ("postgresql://user:se@c/r@et@db.example/study", "postgresql://user:***@db.example/study"),
+        ("postgresql://user:se?cret@db.example/study", "postgresql://user:***@db.example/study"),
+        ("postgresql://user:se?c@ret@db.example/study?x=1", "postgresql://user:***@db.example/study?x=1"),
+        ("postgresql://user:secret@db.example/study?x=a@b", "postgresql://user:***@db.example/study?x=a@b"),
         ("postgresql+psycopg2://u:p@h/db?password=secret&x=1", "postgresql+psycopg2://u:***@h/db?password=***&x=1"),
         ("postgresql://user@db.example:5432/study", "postgresql://user@db.example:5432/study"),
         ("sqlite:////tmp/a@b/study.db", "sqlite:////tmp/a@b/study.db"),
