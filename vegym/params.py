@@ -124,6 +124,11 @@ class Params:
         """The parameters as plain keyword arguments."""
         return dataclasses.asdict(self)  # type: ignore[call-overload]
 
+    def named(self, *names: str) -> str:
+        """``"name=value, ..."`` of the fields ``names`` (numbers as ``:g``), for errors that name the parameters a
+        bound depends on."""
+        return ", ".join(f"{name}={getattr(self, name):g}" for name in names)
+
     @classmethod
     def describe(cls) -> str:
         """One line per field: name, default, allowed range, description (listed in each env's docstring)."""

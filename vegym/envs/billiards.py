@@ -58,15 +58,13 @@ class BilliardsParams(Params):
             allowed = f"[0, acos((radius_a + radius_b) / ball_distance_min) = {self.largest_bearing:.6g})"
             raise invalid("bearing_max", self.bearing_max, allowed)
         if not self.required_speed <= self.speed_max:
+            depends = ("restitution", "mass_a", "mass_b", "radius_a", "radius_b", "deceleration")
+            depends += ("ball_distance_min", "ball_distance_max", "target_distance_max", "bearing_max")
             raise invalid(
                 "speed_max",
                 self.speed_max,
                 f"[required_speed={self.required_speed:.4g}, inf): the strike the farthest target at bearing_max needs "
-                f"(with restitution={self.restitution:g}, mass_a={self.mass_a:g}, mass_b={self.mass_b:g}, "
-                f"radius_a={self.radius_a:g}, radius_b={self.radius_b:g}, deceleration={self.deceleration:g}, "
-                f"ball_distance_min={self.ball_distance_min:g}, ball_distance_max={self.ball_distance_max:g}, "
-                f"target_distance_max={self.target_distance_max:g}, bearing_max={self.bearing_max:g}); raise "
-                "speed_max or ease those",
+                f"(with {self.named(*depends)}); raise speed_max or ease those",
             )
 
     @property

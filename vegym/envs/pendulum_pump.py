@@ -51,7 +51,7 @@ class PendulumPumpParams(ScheduledParams, Params):
         _ = self.schedule  # raises ValueError if change_interval_min or final_hold is out of range
         stable = self.physics.max_stable_step()
         if self.step_length >= stable:  # semi-implicit Euler is unstable at steps of ``stable`` and longer
-            pendulum = f"length={self.length:g}, mass={self.mass:g}, gravity={self.gravity:g}, damping={self.damping:g}"
+            pendulum = self.named("length", "mass", "gravity", "damping")
             if self.dt >= 1000 * stable:
                 allowed = f"(0, 1000 substeps x {stable:.4g} s), the stable step of the pendulum of {pendulum}"
                 raise invalid("dt", self.dt, allowed)

@@ -74,10 +74,7 @@ class ThreadEnvParams(Params):
         (weakest, strongest), scale = self._weakest_plucks(rest, (self.pluck_min, self.pluck_max))
         least = 1e-14 * scale / self.settle_fraction  # 50 times the rounding of the energy, per settle_fraction
         if not weakest > least:  # rounding would decide when the episode settles, or the pluck adds no energy
-            shape = ", ".join(
-                f"{name}={getattr(self, name):g}"
-                for name in ("n_nodes", "node_mass", "stiffness", "natural_length", "span", "gravity")
-            )
+            shape = self.named("n_nodes", "node_mass", "stiffness", "natural_length", "span", "gravity")
             told = f"a pluck of pluck_min adds {weakest:.3g} J to the thread of {shape}, of {scale:.3g} J"
             if strongest > least:  # about: the pluck's energy grows as its height squared
                 allowed = f"about [{self.pluck_max * math.sqrt(least / strongest):.3g}, pluck_max] ({told}"
