@@ -292,3 +292,23 @@ def test_bad_parameters_raise_value_error_naming_them(cls, kwargs: dict, name: s
 def test_book_heading_law_rejects_a_step_beyond_a_quarter_turn() -> None:
     with pytest.raises(ValueError, match="dt"):
         aircraft.lateral_limit(np.array([100.0]), 40.0, PARAMS)
+
+
+def test_book_heading_law_rejects_a_step_of_exactly_a_quarter_turn() -> None:
+    params = AircraftParams(max_turn_rate=math.pi, book_faithful=True)  # M dt = pi / 2 exactly at dt = 0.5
+    with pytest.raises(ValueError, match="dt=0.5 is outside the allowed range"):
+        aircraft.lateral_limit(np.array([100.0]), 0.5, params)
+
+
+def test_book_autopilot_does_not_wrap_the_heading_error() -> None:
+    """8.126 as printed: from psi = -3 to psi_d = 3 the raw error +6 turns left the long way (wrapped: -0.28, right)."""
+    params = AircraftParams(book_faithful=True)
+    state = aircraft.initial_state(np.zeros((1, 3)), 100.0, -3.0)
+    demand = np.array([[0.0, 100.0, 3.0]])
+    command = aircraft.book_autopilot(state, demand, 0.5, params, AutopilotGains())
+    assert command[0, 2] == pytest.approx(float(aircraft.lateral_limit(np.array([100.0]), 0.5, params)[0]), rel=1e-12)
+
+
+def test_equal_speed_limits_are_refused() -> None:
+    with pytest.raises(ValueError, match="max_speed"):
+        AircraftParams(min_speed=100.0, max_speed=100.0)

@@ -113,3 +113,13 @@ def test_every_frame_draws_one_clock_at_the_simulation_time(env_id: str, monkeyp
         assert calls[0] > 0.0
         if terminated or truncated:
             break
+
+
+def test_clock_reading_is_whole_hours_whole_minutes_and_the_seconds_left_over() -> None:
+    seconds = np.array([3 * HOUR + 59 * 60 + 40.5, 13 * HOUR + 30 * 60 + 29.0, 11 * HOUR + 59 * 60 + 59.75])
+    hrs, minutes, sec = clock.clock_reading(seconds)
+    np.testing.assert_array_equal(hrs, [3.0, 1.0, 11.0])
+    np.testing.assert_array_equal(minutes, [59.0, 30.0, 59.0])
+    np.testing.assert_allclose(sec, [40.5, 29.0, 59.75], rtol=0, atol=1e-9)
+    second_hand = clock.hand_angles_at(seconds)[:, 0]
+    assert np.all((second_hand > -270.0) & (second_hand <= 90.0))  # 90 - 6 sec with sec in [0, 60)

@@ -124,3 +124,9 @@ def test_reduced_mass_is_the_product_over_the_sum_for_any_shapes() -> None:
         collision.reduced_mass(np.array([[1.0], [2.0]]), np.array([1.0, 3.0])),
         [[1.0 / 2.0, 3.0 / 4.0], [2.0 / 3.0, 6.0 / 5.0]],
     )
+
+
+def test_first_contact_is_zero_not_negative_for_spheres_touching_to_rounding() -> None:
+    """|c_b - c_a| = 0.3 against R = 0.1 + 0.2 (one ulp more): in contact, so no travel, never a negative one."""
+    travel = collision.first_contact(np.zeros(2), np.array([1.0, 0.0]), np.array([0.3, 0.0]), 0.1 + 0.2)
+    assert travel == 0.0

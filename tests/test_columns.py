@@ -29,3 +29,10 @@ def test_scratch_arrays_hold_n_floats_each_in_memory_of_their_own(n: int) -> Non
 def test_pairwise_sum_is_numpys_sum_bit_for_bit(n: int) -> None:
     values = np.random.default_rng(n).normal(size=n) * 10.0 ** np.random.default_rng(n + 1).integers(-8, 8, n)
     assert pairwise_sum(values) == np.sum(values)
+
+
+def test_pairwise_sum_of_eight_values_uses_numpys_eight_accumulators() -> None:
+    """n = 8 is the first length numpy sums with its eight accumulators, not left to right."""
+    values = np.array([1.0] + [1e-16] * 7)
+    assert np.sum(values) != sum(values.tolist())  # the two orders differ on these values
+    assert pairwise_sum(values) == np.sum(values)

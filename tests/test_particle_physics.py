@@ -236,3 +236,23 @@ def test_particle_params_reject_invalid_values_naming_them() -> None:
         ParticleParams(radius=-1)
     with pytest.raises(TypeError):
         ParticleParams(radious=1.0)  # type: ignore[call-arg]
+
+
+def test_event_step_refuses_a_negative_restitution() -> None:
+    with pytest.raises(ValueError, match=r"restitution=-0.5 is outside the allowed range \[0, 1\]"):
+        particle.event_step(np.array([1.0]), np.array([0.0]), 0.1, -0.5, ParticleParams())
+
+
+def test_event_step_of_zero_duration_keeps_a_flying_particle_and_bounces_one_on_the_ground() -> None:
+    """dt = 0 is allowed (dt >= 0): nothing moves, but a particle at h = r moving down rebounds at once."""
+    h, v = particle.event_step(np.array([1.0, 0.1]), np.array([-2.0, -3.0]), 0.0, 0.5, ParticleParams(radius=0.1))
+    np.testing.assert_array_equal(h, [1.0, 0.1])
+    np.testing.assert_array_equal(v, [-2.0, 1.5])
+
+
+def test_a_contact_exactly_at_the_end_of_the_step_is_resolved_in_that_step() -> None:
+    """g = 8, h = 4 from rest lands after exactly 1 s at -8 m/s (every number exact): a 1 s step ends rebounding."""
+    assert particle.time_to_ground(4.0, 0.0, 0.0, 8.0) == 1.0
+    h, v = particle.event_step(np.array([4.0]), np.array([0.0]), 1.0, 0.5, ParticleParams(gravity=8.0))
+    np.testing.assert_array_equal(h, [0.0])
+    np.testing.assert_array_equal(v, [4.0])

@@ -151,3 +151,30 @@ def test_batched_impact_equals_looped_bit_for_bit() -> None:
         point_i, t_i = projectile.impact_point(p0[i : i + 1], v0[i : i + 1], wind[i : i + 1], params)
         np.testing.assert_array_equal(point_i[0], point[i])
         assert t_i[0] == t[i]
+
+
+def test_a_vertical_drift_enters_the_landing_time_as_it_enters_position_at() -> None:
+    params = ProjectileParams(radius=0.1)
+    p0, v0, wind = np.array([[0.0, 2.0, 0.0]]), np.array([[10.0, 5.0, 0.0]]), np.array([[1.0, -0.5, 2.0]])
+    point, t = projectile.impact_point(p0, v0, wind, params)
+    np.testing.assert_allclose(t, projectile.impact_time(p0, v0, wind, params), rtol=1e-12)
+    np.testing.assert_allclose(projectile.position_at(p0, v0, wind, t, params), point, rtol=0, atol=1e-9)
+
+
+def test_firing_solution_hits_with_a_vertical_drift_component() -> None:
+    params = ProjectileParams()
+    delta, wind = np.array([[60.0, 5.0, -20.0]]), np.array([[2.0, 0.8, -1.5]])
+    for lob in (False, True):
+        elevation, azimuth, t, ok = projectile.firing_solution(delta, wind, 40.0, params, lob=lob)
+        assert ok.all()
+        v0 = projectile.launch_velocity(elevation, azimuth, np.array([40.0]))
+        hit = projectile.position_at(np.zeros((1, 3)), v0, wind, t, params)
+        np.testing.assert_allclose(hit, delta, rtol=0, atol=1e-9)
+
+
+def test_max_range_elevation_is_vertical_from_just_below_the_apex_of_a_vertical_shot() -> None:
+    """Landing level between v^2/(2g) and v^2/g above the launch: 2 (v^2 + g h) > 0 but the sine would exceed 1."""
+    params = ProjectileParams()
+    v = 10.0
+    h = -0.75 * v * v / params.gravity
+    assert projectile.max_range_elevation(v, h, params) == np.pi / 2

@@ -215,3 +215,10 @@ def test_energy_is_the_closed_form_summed_as_numpy_sums() -> None:
         potential = m * g * np.sum(np.ascontiguousarray(positions[b, :, 1]))
         elastic = 0.5 * s_ * np.sum((length[b] - l_) * (length[b] - l_))
         assert thread.energy(positions, velocities, DEFAULT)[b] == kinetic + potential + elastic
+
+
+def test_a_thread_exactly_at_its_natural_length_without_gravity_is_refused() -> None:
+    """The allowed range is open at span / (N + 1): a straight thread at zero tension has no transverse stiffness."""
+    spacing = ThreadParams().spacing
+    with pytest.raises(ValueError, match="natural_length=.* is outside the allowed range"):
+        ThreadParams(gravity=0.0, natural_length=spacing)

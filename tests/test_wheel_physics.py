@@ -208,3 +208,9 @@ def test_batched_functions_equal_the_looped_ones_bit_for_bit() -> None:
 def test_bad_radius_raises_value_error_naming_it(radius: float) -> None:
     with pytest.raises(ValueError, match=r"radius=.* is outside the allowed range \(0, inf\)"):
         WheelParams(radius=radius)
+
+
+def test_steer_step_wraps_the_heading_into_minus_pi_to_pi() -> None:
+    pose = Pose(np.array([0.0]), np.array([0.0]), np.array([3.0]), np.array([0.0]))
+    new = wheel.steer_step(pose, np.array([1.0]), np.array([1.0]), 0.5, WheelParams())
+    assert new.heading[0] == 3.5 - 2.0 * np.pi
