@@ -17,6 +17,8 @@ from agents.analytic import controller_for
 from agents.config import CONFIG_DIR, load_config
 from agents.evaluation import (
     TASK_METRICS,
+    Episode,
+    EvalResult,
     RandomAgent,
     agent_factory,
     evaluate,
@@ -154,3 +156,77 @@ def test_scoring_warns_when_the_analytic_controller_returns_less_than_random() -
     swapped = [evaluate(env_id, "analytic", random_factory, episodes=3), evaluate(env_id, "random", controller_for, 3)]
     with pytest.warns(UserWarning, match="analytic controller's mean return .* is below the random policy's"):
         evaluation.score(swapped)
+
+
+def test_an_evaluation_asks_the_agent_for_deterministic_actions_and_flags_each_episode_start() -> None:
+    """README: every agent on the same episodes with deterministic actions (a learned agent's mean action)."""
+    calls: list[tuple[bool, bool]] = []
+
+    class Recording:
+        def __init__(self, env: Any) -> None:
+            self.controller = controller_for(env)
+
+        def predict(self, obs: Any, state: Any = None, episode_start: Any = None, deterministic: bool = False) -> Any:
+            calls.append((deterministic, bool(np.asarray(episode_start).item())))
+            return self.controller.predict(obs, state, episode_start, deterministic)
+
+    result = evaluate("vegym/BouncingBall-v0", "recording", Recording, episodes=2)
+    assert all(deterministic for deterministic, _ in calls)
+    starts = [start for _, start in calls]
+    assert len(starts) == sum(len(ep.rewards) for ep in result.episodes)
+    first_steps = np.cumsum([0, *[len(ep.rewards) for ep in result.episodes[:-1]]])
+    assert [k for k, s in enumerate(starts) if s] == first_steps.tolist()
+
+
+def test_the_table_s_cells_count_the_seeds_show_success_in_percent_and_zero_residues_as_zero() -> None:
+    record = {
+        "env_id": "vegym/Projectile-v0", "agent": "ppo", "seeds": [0, 1, 2], "mean_return": 0.5, "std_return": 0.1,
+        "success_rate": 0.25, "normalized_score": -1e-17, "ci95_normalized_score": None,
+        "iqm_normalized_score": None, "ci95_iqm_normalized_score": None,
+        "normalized_score_vs": {"oracle": 0.5}, "metrics": {"episode_length": 10.0},
+    }  # fmt: skip
+    row = dict(zip(compare.TABLE_COLUMNS, compare.table_rows([record])[0], strict=True))
+    assert row["env"] == "Projectile-v0" and row["agent"] == "ppo"
+    assert row["seeds"] == "3"
+    assert row["return (mean ± std)"] == "0.500 ± 0.100"
+    assert row["success"] == "25%"
+    assert row["normalized [95% CI]"] == "0.000"  # the rounding residue of the random policy's 0
+    assert row["IQM [95% CI]"] == "-"
+    assert row["vs reference"] == "oracle: 0.500"
+    assert row["control metrics"] == "episode_length=10.000"
+    untrained = {**record, "seeds": None, "success_rate": None}
+    cells = dict(zip(compare.TABLE_COLUMNS, compare.table_rows([untrained])[0], strict=True))
+    assert cells["seeds"] == "-" and cells["success"] == "-"
+
+
+def test_evaluations_start_from_seed_1000_as_the_readme_says() -> None:
+    """README: every agent on the same 20 episodes, seeds 1000-1019."""
+    result = evaluate("vegym/BouncingBall-v0", "analytic", controller_for, episodes=2)
+    env = gym.make("vegym/BouncingBall-v0")
+    alone = [run_episode(env, controller_for(env), seed).ret for seed in (1000, 1001)]
+    assert result.seed == 1000 and result.returns.tolist() == alone
+
+
+def test_random_agents_of_different_seeds_draw_different_actions_and_of_one_seed_the_same() -> None:
+    space = gym.make("vegym/Projectile-v0").action_space
+    obs = np.zeros(4, dtype=np.float32)
+    first = [RandomAgent(space, seed).predict(obs)[0] for seed in (7, 7, 8)]
+    np.testing.assert_array_equal(first[0], first[1])
+    assert not np.array_equal(first[0], first[2])
+
+
+def test_the_success_rate_is_unknown_when_an_episode_does_not_report_success() -> None:
+    def episode(info: dict) -> Episode:
+        return Episode(np.zeros((2, 1)), np.zeros((1, 1)), np.zeros(1), [info])
+
+    reported = EvalResult(
+        "vegym/Projectile-v0", "a", 0, [[episode({"is_success": True}), episode({"is_success": False})]]
+    )
+    assert reported.success_rate == 0.5
+    mixed = EvalResult("vegym/Projectile-v0", "a", 0, [[episode({"is_success": True}), episode({})]])
+    assert mixed.success_rate is None
+
+
+def test_an_evaluation_of_no_episodes_is_refused() -> None:
+    with pytest.raises(ValueError, match="episodes=0 must be at least 1"):
+        evaluate("vegym/BouncingBall-v0", "analytic", controller_for, episodes=0)

@@ -23,11 +23,11 @@ import torch
 from gymnasium.vector import AutoresetMode, SyncVectorEnv
 from rich.progress import Progress
 from stable_baselines3 import SAC
-from stable_baselines3.common.callbacks import BaseCallback
+from stable_baselines3.common.callbacks import BaseCallback, EvalCallback
 from stable_baselines3.common.vec_env import DummyVecEnv
 
 import vegym
-from agents import compare, multiseed
+from agents import cli, compare, multiseed, training
 from agents.cli import _print_table, build_parser, main
 from agents.config import (
     ALGOS,
@@ -45,10 +45,12 @@ from agents.config import (
     with_overrides,
     zoo_entry,
 )
-from agents.evaluation import EVAL_SEED, agent_factory, evaluate, evaluate_agents, load_learned
+from agents.evaluation import EVAL_SEED, agent_factory, evaluate, evaluate_agents, load_learned, short_runs
 from agents.multiseed import SeedOutcome
 from agents.statistics import summarize
 from agents.training import (
+    REPEAT_WINDOW_S,
+    StopOnInterrupt,
     TrainResult,
     WholeCollectionsProgressBar,
     build_model,
@@ -1210,3 +1212,181 @@ def test_the_progress_bar_counts_the_steps_learn_trains_whole_collections_includ
         assert bar.pbar.total == total
     finally:
         bar.pbar.close()
+
+
+def test_a_closed_upper_bound_is_an_allowed_value(tmp_path: Path) -> None:
+    """gamma and gae_lambda lie in [0, 1]: 1 (no discount, Monte-Carlo advantages) is allowed, just above is not."""
+    entry = "vegym/Projectile-v0:\n  n_timesteps: 1000\n  gamma: {}\n  gae_lambda: 1.0\n"
+    config = load_config(write_config(tmp_path, entry.format("1.0")), "vegym/Projectile-v0")
+    assert config.hyperparams["gamma"] == 1.0 and config.hyperparams["gae_lambda"] == 1.0
+    with pytest.raises(ConfigError, match=re.escape("gamma=1.01 is outside [0, 1]")):
+        load_config(write_config(tmp_path, entry.format("1.01")), "vegym/Projectile-v0")
+
+
+@pytest.mark.parametrize("key", ["n_envs", "n_steps", "n_timesteps"])
+def test_a_bool_is_not_an_integer_setting(tmp_path: Path, key: str) -> None:
+    """YAML's ``true`` is a Python bool, an int subclass: it must not pass as the count 1."""
+    entry = {"n_timesteps": "1000", key: "true"}
+    text = "vegym/Projectile-v0:\n" + "".join(f"  {k}: {v}\n" for k, v in entry.items())
+    with pytest.raises(ConfigError, match=f"{key}: True is not an integer"):
+        load_config(write_config(tmp_path, text), "vegym/Projectile-v0")
+
+
+def test_n_eval_episodes_must_be_at_least_1(tmp_path: Path) -> None:
+    path = write_config(tmp_path, "vegym/Projectile-v0:\n  n_timesteps: 1000\n  n_eval_episodes: 0\n")
+    with pytest.raises(ConfigError, match="n_eval_episodes=0 must be at least 1"):
+        load_config(path, "vegym/Projectile-v0")
+
+
+def test_a_policy_class_must_derive_from_its_torch_base(tmp_path: Path) -> None:
+    path = write_config(
+        tmp_path, "vegym/Projectile-v0:\n  n_timesteps: 1000\n  policy_kwargs: {activation_fn: nn.Parameter}\n"
+    )
+    with pytest.raises(ConfigError, match=re.escape("'nn.Parameter' is not a torch.nn class derived from Module")):
+        load_config(path, "vegym/Projectile-v0")
+
+
+def test_nan_is_not_a_real_number_setting(tmp_path: Path) -> None:
+    """``.nan`` for a float setting without a range (TD3's ``noise_std``) is refused, not trained with."""
+    text = "vegym/Projectile-v0:\n  n_timesteps: 1000\n  noise_type: normal\n  noise_std: .nan\n"
+    with pytest.raises(ConfigError, match="noise_std: nan is not a real number"):
+        load_config(write_config(tmp_path, text, "td3.yml"), "vegym/Projectile-v0")
+
+
+def test_tau_0_is_refused_and_1_allowed(tmp_path: Path) -> None:
+    """tau lies in (0, 1]: at 0 the target networks never move."""
+    text = "vegym/Projectile-v0:\n  n_timesteps: 1000\n  tau: {}\n"
+    with pytest.raises(ConfigError, match=re.escape("tau=0.0 is outside (0, 1]")):
+        load_config(write_config(tmp_path, text.format(0), "sac.yml"), "vegym/Projectile-v0")
+    assert (
+        load_config(write_config(tmp_path, text.format(1), "sac.yml"), "vegym/Projectile-v0").hyperparams["tau"] == 1.0
+    )
+
+
+def test_the_commands_defaults_are_the_documented_ones() -> None:
+    parse = build_parser().parse_args
+    evaluate = parse(["evaluate", "--env", "Projectile-v0"])
+    assert (evaluate.agent, evaluate.episodes, evaluate.seed, evaluate.json) == ("analytic", 20, 1000, None)
+    demo = parse(["demo", "--env", "Projectile-v0"])
+    assert (demo.agent, demo.episodes, demo.seed, demo.gif) == ("analytic", 1, 0, None)
+    compare = parse(["compare"])
+    assert (compare.episodes, compare.seed, compare.out, compare.threads) == (20, 1000, "compare_out", 1)
+    assert compare.algos == ["ppo", "sac", "td3"] and compare.retrain is False
+    train = parse(["train", "--env", "Projectile-v0", "--algo", "ppo"])
+    assert (train.jobs, train.threads, train.seed, train.timesteps, train.resume) == (2, 1, None, None, False)
+    sweep = parse(["sweep", "--env", "Projectile-v0", "--algo", "td3", "--trials", "1"])
+    assert (sweep.eval_episodes, sweep.heartbeat, sweep.workers, sweep.tune_env) == (10, 60, 1, [])
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (["evaluate", "--env", "Projectile-v0", "--episodes", "0"], "argument --episodes: 0 is not a positive integer"),
+        (["evaluate", "--env", "Projectile-v0", "--seed", "-1"], "argument --seed: -1 is negative"),
+        (["train", "--env", "Projectile-v0", "--algo", "ppo", "--seeds", "0,1,0"], "give distinct non-negative seeds"),
+        (["train", "--env", "Projectile-v0", "--algo", "ppo", "--seeds", "-1"], "give distinct non-negative seeds"),
+    ],
+)
+def test_out_of_range_counts_and_seeds_are_argument_errors(
+    argv: list[str], message: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit) as caught:  # parsing only: a mutant that lets them through runs no command
+        build_parser().parse_args(argv)
+    assert caught.value.code == 2
+    assert message in capsys.readouterr().err
+
+
+def test_a_ctrl_c_outside_training_exits_with_130(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    def interrupted(args: object) -> int:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(cli, "cmd_list", interrupted)
+    assert main(["list"]) == 130
+    assert capsys.readouterr().out.strip() == "interrupted"
+
+
+TINY = "vegym/Projectile-v0:\n  n_timesteps: 64\n  n_envs: 4\n  n_steps: 16\n  batch_size: 64\n"
+
+
+class _Stop(Exception):
+    pass
+
+
+def test_the_training_time_evaluation_is_deterministic_on_episodes_apart_from_the_training_ones(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    config = load_config(write_config(tmp_path, TINY + "  seed: 3\n"), "vegym/Projectile-v0")
+    made: list[tuple[int, Any]] = []
+    real_make_env = training.make_env
+
+    def recording_make_env(config: Any, seed: int, n_envs: Any = None) -> Any:
+        made.append((seed, n_envs))
+        return real_make_env(config, seed, n_envs)
+
+    seen: dict[str, Any] = {}
+
+    class RecordingEvalCallback(EvalCallback):
+        def __init__(self, *args: Any, **kwargs: Any) -> None:
+            seen.update(kwargs)
+            raise _Stop
+
+    monkeypatch.setattr(training, "make_env", recording_make_env)
+    monkeypatch.setattr(training, "EvalCallback", RecordingEvalCallback)
+    with pytest.raises(_Stop):
+        train(config, tmp_path / "run", progress_bar=False)
+    (train_seed, train_envs), (eval_seed, eval_envs) = made
+    assert train_seed == 3 and train_envs is None and eval_envs == 1
+    assert eval_seed >= train_seed + config.n_envs  # none of the training sub-envs' seeds 3..6
+    assert seen["deterministic"] is True and seen["n_eval_episodes"] == config.n_eval_episodes
+
+
+def test_resuming_a_run_that_holds_exactly_its_total_leaves_it_as_it_is(tmp_path: Path) -> None:
+    config = load_config(write_config(tmp_path, TINY), "vegym/Projectile-v0")
+    out = tmp_path / "run"
+    train(config, out, progress_bar=False, command="vegym train (first)")
+    names = ("model.zip", "config.yml", "train_stats.json", "command.txt")
+    before = {name: (out / name).read_bytes() for name in names}
+    result = train(resume_config(out), out, resume=True, progress_bar=False, command="vegym train (again)")
+    assert result.timesteps == 64 and result.trained == 0 and not result.interrupted
+    assert {name: (out / name).read_bytes() for name in names} == before
+
+
+def test_a_resumed_run_s_wall_time_adds_the_earlier_segments(tmp_path: Path) -> None:
+    config = load_config(write_config(tmp_path, TINY), "vegym/Projectile-v0")
+    out = tmp_path / "run"
+    train(config, out, progress_bar=False)
+    stats = json.loads((out / "train_stats.json").read_text())
+    (out / "train_stats.json").write_text(json.dumps({**stats, "wall_time_s": 1000.0}))  # a long first segment
+    result = train(resume_config(out, 128), out, resume=True, progress_bar=False)
+    assert 1000.0 < result.wall_time_s < 1000.0 + 600
+    assert json.loads((out / "train_stats.json").read_text())["wall_time_s"] == round(result.wall_time_s, 2)
+
+
+def test_a_second_interrupt_after_the_repeat_window_aborts(monkeypatch: pytest.MonkeyPatch) -> None:
+    clock = [100.0]
+    monkeypatch.setattr(training.time, "monotonic", lambda: clock[0])
+    stopper = StopOnInterrupt()
+    stopper._handle(signal.SIGINT, None)
+    assert stopper.interrupted
+    clock[0] += REPEAT_WINDOW_S / 2
+    stopper._handle(signal.SIGINT, None)  # the same interrupt delivered twice (process, then its group)
+    clock[0] += 2 * REPEAT_WINDOW_S
+    with pytest.raises(KeyboardInterrupt):
+        stopper._handle(signal.SIGINT, None)
+
+
+def test_a_model_trained_on_another_env_is_refused(tmp_path: Path) -> None:
+    out = tmp_path / "run"
+    train(load_config(write_config(tmp_path, TINY), "vegym/Projectile-v0"), out, progress_bar=False)
+    for spec in (out, out / "model.zip"):
+        with pytest.raises(ValueError, match="was trained on vegym/Projectile-v0, not vegym/BouncingBall-v0"):
+            agent_factory(str(spec), "vegym/BouncingBall-v0")
+
+
+def test_a_run_that_trained_exactly_its_total_is_not_noted_as_short(tmp_path: Path) -> None:
+    out = tmp_path / "run"
+    train(load_config(write_config(tmp_path, TINY), "vegym/Projectile-v0"), out, progress_bar=False)
+    assert saved_timesteps(out / "model.zip") == 64  # its total, whole rollouts of 64
+    assert short_runs(out) == [] and short_runs(out / "model.zip") == []

@@ -151,3 +151,22 @@ def test_an_agent_is_compared_with_the_baselines_on_the_same_episodes() -> None:
     gap = analytic.mean() - random.mean()
     held_low, held_high = summarize_scores((agent - random.mean()) / gap).mean_ci95
     assert held_low < 1.0 < held_high
+
+
+def test_a_replicate_whose_episode_draw_ties_the_baselines_is_left_out() -> None:
+    """The baselines differ on one episode of four only: about a third of the replicates draw none of it, tie the
+    baselines and are left out (not divided by zero), so the analytic controller's mean still has the point
+    interval 1."""
+    random, analytic = np.zeros(4), np.array([0.0, 0.0, 0.0, 4.0])
+    summary = summarize(analytic[None], random, analytic)
+    assert summary.mean_ci95 == pytest.approx((1.0, 1.0), abs=1e-12)
+    assert np.all(np.isfinite(summary.iqm_ci95))  # the IQM of the episodes' scores is not 1 in every replicate
+    agent = summarize(np.array([[0.5, 0.0, 1.0, 3.0], [0.0, 0.5, 0.0, 4.0]]), random, analytic)
+    assert np.all(np.isfinite([*agent.mean_ci95, *agent.iqm_ci95]))
+
+
+def test_baselines_with_nan_or_inf_returns_are_rejected() -> None:
+    with pytest.raises(ValueError, match="returns must be finite"):
+        summarize(np.zeros((2, 3)), np.array([0.0, np.nan, 0.0]), np.ones(3))
+    with pytest.raises(ValueError, match="returns must be finite"):
+        summarize(np.zeros((2, 3)), np.zeros(3), np.array([1.0, np.inf, 1.0]))

@@ -11,7 +11,9 @@ import threading
 import time
 import uuid
 from pathlib import Path
+from types import SimpleNamespace
 
+import gymnasium as gym
 import optuna
 import pytest
 import sqlalchemy
@@ -19,10 +21,24 @@ from optuna.storages import RetryHeartbeatStaleTrialCallback
 from optuna.storages._heartbeat import HeartbeatThread
 from optuna.trial import TrialState
 
+import vegym  # noqa: F401
 from agents import sweep as sweep_module
+from agents.analytic import controller_for
 from agents.cli import main
 from agents.config import CONFIG_DIR, load_config, load_configs, with_overrides
-from agents.sweep import SweepSettings, parse_tune_env, run_worker, sample_hyperparams, shown_storage
+from agents.evaluation import EVAL_SEED, RandomAgent
+from agents.sweep import (
+    SWEEP_EVAL_SEED,
+    ReportAndPrune,
+    Scorer,
+    SweepSettings,
+    check_storage,
+    load_study,
+    parse_tune_env,
+    run_worker,
+    sample_hyperparams,
+    shown_storage,
+)
 from agents.training import TrainResult
 
 VEGYM = [sys.executable, "-c", "import sys; from agents.cli import main; sys.exit(main())"]
@@ -401,3 +417,108 @@ def test_an_interrupt_to_the_parent_alone_stops_its_workers(
         if parent.poll() is None:
             os.killpg(parent.pid, signal.SIGKILL)
             parent.wait()
+
+
+class _Trial:
+    def __init__(self, prune: bool) -> None:
+        self.prune, self.reports = prune, []
+
+    def report(self, value: float, step: int) -> None:
+        self.reports.append((value, step))
+
+    def should_prune(self) -> bool:
+        return self.prune
+
+
+@pytest.mark.parametrize("prune", [False, True])
+def test_a_pruned_trial_stops_its_training_at_the_report(prune: bool) -> None:
+    trial = _Trial(prune)
+    callback = ReportAndPrune(trial, lambda agent: 0.25, n_timesteps=100, reports=4)
+    callback.model = SimpleNamespace(get_vec_normalize_env=lambda: None)
+    callback.num_timesteps = 24
+    assert callback._on_step() and trial.reports == []  # before the first report at 25 steps
+    callback.num_timesteps = 25
+    assert callback._on_step() is (not prune) and callback.pruned is prune
+    assert trial.reports == [(0.25, 25)]
+
+
+def test_the_sweep_scores_on_its_own_episodes_from_0_random_to_1_analytic() -> None:
+    """Sweep episodes lie apart from compare's (seeds EVAL_SEED..EVAL_SEED+19, README), so that a tuned config is
+    not chosen on the episodes it is then reported on."""
+    assert SWEEP_EVAL_SEED >= EVAL_SEED + 20
+    scorer = Scorer("vegym/BouncingBall-v0", 2, {})
+    env = gym.make("vegym/BouncingBall-v0")
+    assert scorer(controller_for(env)) == pytest.approx(1.0, abs=1e-12)
+    assert scorer(RandomAgent(env.action_space, SWEEP_EVAL_SEED)) == pytest.approx(0.0, abs=1e-12)
+
+
+def test_an_in_memory_sqlite_storage_is_refused() -> None:
+    """Workers share the study through a file; an in-memory database would vanish with each process."""
+    with pytest.raises(ValueError, match="a sweep needs a SQLite file"):
+        check_storage("sqlite:///:memory:")
+
+
+def test_a_stale_trial_s_grace_period_is_two_heartbeats(tmp_path: Path) -> None:
+    storage = sweep_module.open_storage(f"sqlite:///{tmp_path / 's.db'}", heartbeat=7)
+    assert storage.get_heartbeat_interval() == 7
+    assert storage.grace_period == 14
+
+
+def test_a_trial_pruned_during_training_ends_pruned(monkeypatch: pytest.MonkeyPatch) -> None:
+    def pruned_training(config: object, out: Path, **kwargs: object) -> TrainResult:
+        kwargs["callbacks"][0].pruned = True  # as ReportAndPrune marks it when the pruner says so
+        return TrainResult(out / "model.zip", 0, False, 0.0)
+
+    monkeypatch.setattr(sweep_module, "train", pruned_training)
+    settings = SweepSettings("vegym/BouncingBall-v0", "td3", 1, "sqlite:///unused.db", "prune")
+    with pytest.raises(optuna.TrialPruned):
+        sweep_module.objective(optuna.create_study().ask(), settings, lambda agent: 0.0)
+
+
+def test_a_password_query_parameter_is_masked_in_any_case() -> None:
+    assert shown_storage("postgresql://u@h/db?PASSWORD=secret&x=1") == "postgresql://u@h/db?PASSWORD=***&x=1"
+    assert shown_storage("postgresql://u@h/db?x=1&Password=secret") == "postgresql://u@h/db?x=1&Password=***"
+
+
+def test_a_tune_env_range_must_not_be_empty() -> None:
+    with pytest.raises(ValueError, match="LOW=1 must be below HIGH=1"):
+        parse_tune_env(["bottom_out_penalty=1:1"], "vegym/Suspension-v0")
+
+
+def test_a_study_created_for_other_settings_is_refused(tmp_path: Path) -> None:
+    url = f"sqlite:///{tmp_path / 's.db'}"
+    load_study(SweepSettings("vegym/BouncingBall-v0", "td3", 1, url, "s"))
+    load_study(SweepSettings("vegym/BouncingBall-v0", "td3", 4, url, "s"))  # more trials: the same study
+    with pytest.raises(ValueError, match="study 's' in .* was created for .*, not "):
+        load_study(SweepSettings("vegym/BouncingBall-v0", "td3", 1, url, "s", eval_episodes=3))
+
+
+def test_a_worker_gives_up_after_exactly_three_failed_trials_in_a_row(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    calls: list[int] = []
+
+    def broken(trial: object, settings: object, score: object, stop: object) -> float:
+        calls.append(trial.number)
+        raise ValueError("a broken trial")
+
+    monkeypatch.setattr(sweep_module, "objective", broken)
+    settings = SweepSettings(
+        "vegym/BouncingBall-v0", "td3", 5, f"sqlite:///{tmp_path / 's.db'}", "broken", eval_episodes=1
+    )
+    with pytest.raises(RuntimeError, match="three trials in a row failed"):
+        run_worker(settings, log=lambda line: None)
+    assert calls == [0, 1, 2]
+
+
+def test_a_sampled_ppo_batch_fits_the_rollout_of_a_config_with_one_env() -> None:
+    """The committed configs run 8 or more envs, where the largest batch (512) always fits the smallest rollout
+    (64 x 8); a config of one env must still get batches no larger than its rollout."""
+
+    base = with_overrides(load_config(CONFIG_DIR / "ppo.yml", "vegym/Projectile-v0", "ppo"), {"n_envs": 1}, "test")
+    study = optuna.create_study(sampler=optuna.samplers.RandomSampler(seed=0))
+    for _ in range(20):
+        trial = study.ask()
+        values = sample_hyperparams(trial, base)
+        assert values["batch_size"] <= values["n_steps"]
+        study.tell(trial, 0.0)
