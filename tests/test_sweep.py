@@ -514,7 +514,6 @@ def test_a_worker_gives_up_after_exactly_three_failed_trials_in_a_row(
 def test_a_sampled_ppo_batch_fits_the_rollout_of_a_config_with_one_env() -> None:
     """The committed configs run 8 or more envs, where the largest batch (512) always fits the smallest rollout
     (64 x 8); a config of one env must still get batches no larger than its rollout."""
-
     base = with_overrides(load_config(CONFIG_DIR / "ppo.yml", "vegym/Projectile-v0", "ppo"), {"n_envs": 1}, "test")
     study = optuna.create_study(sampler=optuna.samplers.RandomSampler(seed=0))
     for _ in range(20):
