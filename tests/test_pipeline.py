@@ -72,6 +72,10 @@ def write_config(tmp_path: Path, text: str, name: str = "ppo.yml") -> Path:
     return path
 
 
+TINY = "vegym/Projectile-v0:\n  n_timesteps: 64\n  n_envs: 4\n  n_steps: 16\n  batch_size: 64\n"
+"""A PPO config entry that trains one 64-step rollout of 4 envs in a second or two."""
+
+
 def run_cli(*args: str, timeout: float = 240) -> subprocess.CompletedProcess:
     return subprocess.run([*VEGYM, *args], capture_output=True, text=True, timeout=timeout)
 
@@ -665,7 +669,7 @@ def test_resume_keeps_the_earlier_evaluations(tmp_path: Path) -> None:
 
 
 def test_an_abort_while_saving_leaves_the_last_complete_model(tmp_path: Path, monkeypatch: Any) -> None:
-    entry = "vegym/Projectile-v0:\n  n_timesteps: 64\n  n_envs: 4\n  n_steps: 16\n  batch_size: 64\n  eval_freq: 1e6\n"
+    entry = TINY + "  eval_freq: 1e6\n"
     config = load_config(write_config(tmp_path, entry), "vegym/Projectile-v0")
     out = tmp_path / "run"
     train(config, out, progress_bar=False)
@@ -707,7 +711,7 @@ def test_evaluating_an_interrupted_run_notes_the_steps_it_lacks(tmp_path: Path, 
 
 
 def test_evaluating_one_run_records_its_training_seed(tmp_path: Path, capsys: Any) -> None:
-    entry = "vegym/Projectile-v0:\n  n_timesteps: 64\n  n_envs: 4\n  n_steps: 16\n  batch_size: 64\n  seed: 5\n"
+    entry = TINY + "  seed: 5\n"
     out = tmp_path / "seed_5"
     train(load_config(write_config(tmp_path, entry), "vegym/Projectile-v0"), out, progress_bar=False)
     for agent in (out, out / "model.zip"):
@@ -720,7 +724,7 @@ def test_evaluating_one_run_records_its_training_seed(tmp_path: Path, capsys: An
 
 
 def test_train_argument_conflicts_are_errors_with_exit_code_2(tmp_path: Path, capsys: Any) -> None:
-    entry = "vegym/Projectile-v0:\n  n_timesteps: 64\n  n_envs: 4\n  n_steps: 16\n  batch_size: 64\n"
+    entry = TINY
     out = tmp_path / "run"
     train(load_config(write_config(tmp_path, entry), "vegym/Projectile-v0"), out, progress_bar=False)
     capsys.readouterr()
@@ -736,7 +740,7 @@ def test_train_argument_conflicts_are_errors_with_exit_code_2(tmp_path: Path, ca
 
 
 def test_a_resumed_run_is_announced_with_the_steps_it_starts_from(tmp_path: Path, capsys: Any) -> None:
-    entry = "vegym/Projectile-v0:\n  n_timesteps: 64\n  n_envs: 4\n  n_steps: 16\n  batch_size: 64\n"
+    entry = TINY
     out = tmp_path / "run"
     train(load_config(write_config(tmp_path, entry), "vegym/Projectile-v0"), out, progress_bar=False)
     capsys.readouterr()
@@ -747,7 +751,7 @@ def test_a_resumed_run_is_announced_with_the_steps_it_starts_from(tmp_path: Path
 
 
 def test_a_resumed_run_evaluates_and_saves_at_the_multiples_of_its_frequencies(tmp_path: Path) -> None:
-    entry = "vegym/Projectile-v0:\n  n_timesteps: 64\n  n_envs: 4\n  n_steps: 16\n  batch_size: 64\n"
+    entry = TINY
     config = load_config(write_config(tmp_path, entry + "  eval_freq: 48\n  save_freq: 48\n"), "vegym/Projectile-v0")
     out = tmp_path / "run"
     train(config, out, progress_bar=False)
@@ -759,7 +763,7 @@ def test_a_resumed_run_evaluates_and_saves_at_the_multiples_of_its_frequencies(t
 
 
 def test_resume_skips_a_model_cut_short_and_goes_on_from_the_newest_that_reads(tmp_path: Path) -> None:
-    entry = "vegym/Projectile-v0:\n  n_timesteps: 64\n  n_envs: 4\n  n_steps: 16\n  batch_size: 64\n"
+    entry = TINY
     config = load_config(write_config(tmp_path, entry + "  eval_freq: 1e6\n  save_freq: 32\n"), "vegym/Projectile-v0")
     out = tmp_path / "run"
     train(config, out, progress_bar=False)
@@ -786,7 +790,7 @@ class _StartProbe(BaseCallback):
 
 
 def test_a_resumed_run_starts_new_episodes_seeded_after_the_steps_done(tmp_path: Path) -> None:
-    entry = "vegym/Projectile-v0:\n  n_timesteps: 64\n  n_envs: 4\n  n_steps: 16\n  batch_size: 64\n  eval_freq: 1e6\n"
+    entry = TINY + "  eval_freq: 1e6\n"
     config = load_config(write_config(tmp_path, entry), "vegym/Projectile-v0")
     out = tmp_path / "run"
     first, resumed = _StartProbe(), _StartProbe()
@@ -1305,9 +1309,6 @@ def test_a_ctrl_c_outside_training_exits_with_130(
     monkeypatch.setattr(cli, "cmd_list", interrupted)
     assert main(["list"]) == 130
     assert capsys.readouterr().out.strip() == "interrupted"
-
-
-TINY = "vegym/Projectile-v0:\n  n_timesteps: 64\n  n_envs: 4\n  n_steps: 16\n  batch_size: 64\n"
 
 
 class _Stop(Exception):
