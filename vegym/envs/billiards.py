@@ -58,8 +58,10 @@ class BilliardsParams(Params):
             allowed = f"[0, acos((radius_a + radius_b) / ball_distance_min) = {self.largest_bearing:.6g})"
             raise invalid("bearing_max", self.bearing_max, allowed)
         if not self.required_speed <= self.speed_max:
-            depends = ("restitution", "mass_a", "mass_b", "radius_a", "radius_b", "deceleration")
-            depends += ("ball_distance_min", "ball_distance_max", "target_distance_max", "bearing_max")
+            depends = (
+                "restitution", "mass_a", "mass_b", "radius_a", "radius_b", "deceleration",
+                "ball_distance_min", "ball_distance_max", "target_distance_max", "bearing_max",
+            )  # fmt: skip
             raise invalid(
                 "speed_max",
                 self.speed_max,
