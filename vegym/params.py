@@ -47,6 +47,15 @@ def interval_text(meta: typing.Mapping[str, Any]) -> str:
     return f"{'(' if meta['low_open'] else '['}{meta['low']:g}, {meta['high']:g}{')' if meta['high_open'] else ']'}"
 
 
+def outside(values: Any, meta: typing.Mapping[str, Any]) -> Any:
+    """Whether ``values`` (a number, or elementwise for an array) are NaN or outside the interval of ``meta``
+    (``low``, ``high``, ``low_open``, ``high_open``, as :func:`param` records it)."""
+    low, high = meta["low"], meta["high"]
+    too_low = values <= low if meta["low_open"] else values < low
+    too_high = values >= high if meta["high_open"] else values > high
+    return np.isnan(values) | too_low | too_high
+
+
 ParamsT = typing.TypeVar("ParamsT", bound="Params")
 
 INT64_RANGE = (-(2**63), 2**63 - 1)
@@ -99,10 +108,7 @@ class Params:
 
     @staticmethod
     def _check_range(name: str, value: float, meta: typing.Mapping[str, Any]) -> None:
-        low, high = meta["low"], meta["high"]
-        too_low = value <= low if meta["low_open"] else value < low
-        too_high = value >= high if meta["high_open"] else value > high
-        if math.isnan(value) or too_low or too_high:
+        if outside(value, meta):
             raise ValueError(f"{name}={value!r} is outside the allowed range {interval_text(meta)}")
 
     def validate(self) -> None:
@@ -162,3 +168,16 @@ def with_arguments(doc: str, params_cls: type[Params]) -> str:
 def invalid(name: str, value: Any, allowed: str) -> ValueError:
     """The ``ValueError`` for a parameter that fails a cross-field check."""
     return ValueError(f"{name}={value!r} is outside the allowed range {allowed}")
+
+
+def check_values(
+    name: str, values: Any, low: float, high: float, *, low_open: bool = False, high_open: bool = False
+) -> None:
+    """Raise ``ValueError`` naming ``name``, its first offending value and the allowed interval if any of ``values``
+    (a number or an array) is NaN or outside ``[low, high]`` (the ends excluded where open): the check of
+    :class:`Params` for the parameters that the physics functions take as arguments."""
+    array = np.asarray(values, dtype=np.float64)
+    meta = {"low": low, "high": high, "low_open": low_open, "high_open": high_open}
+    bad = outside(array, meta)
+    if np.any(bad):
+        raise ValueError(f"{name}={float(array[bad].flat[0])!r} is outside the allowed range {interval_text(meta)}")

@@ -34,7 +34,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from vegym.params import Params, invalid, param
+from vegym.params import Params, check_values, invalid, param
 from vegym.physics import vmath
 from vegym.physics.columns import flat_columns
 
@@ -132,6 +132,16 @@ def _clip_columns(values: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.n
     return out
 
 
+def _commands(values: np.ndarray) -> np.ndarray:
+    """Triples (n, 3) as float64; one aircraft's (3,) as a batch of one."""
+    values = np.asarray(values, dtype=np.float64)
+    if values.ndim == 1:
+        values = values[None]
+    if values.ndim != 2 or values.shape[1] != 3:
+        raise ValueError(f"expected (n, 3) or (3,) values, got shape {values.shape}")
+    return values
+
+
 def initial_state(position: np.ndarray, speed: np.ndarray, heading: np.ndarray) -> AircraftState:
     """Aircraft at ``position`` (n, 3), ``speed`` (n,) and ``heading`` (n,), with zero previous commands."""
     position = np.array(position, dtype=np.float64, ndmin=2)
@@ -154,7 +164,7 @@ def saturate(command: np.ndarray, speed: np.ndarray, dt: float, params: Aircraft
     The third command is the turn rate omega in ``[-M, M]``, or with ``book_faithful`` the lateral velocity
     ``v_x`` in ``[-V, V]`` (:func:`lateral_limit`).
     """
-    command = np.asarray(command, dtype=np.float64)
+    command = _commands(command)
     out = _clip_columns(command, params.command_low, params.command_high)
     if params.book_faithful:
         lateral = lateral_limit(speed, dt, params)
@@ -260,6 +270,7 @@ def step(
     plus gusts, drawn by the caller). The climb rate returned is ``(y' - y) / dt``, drafts and the altitude
     limits included.
     """
+    check_values("dt", dt, 0.0, math.inf, low_open=True, high_open=True)
     new_command = saturate(command, state.speed, dt, params)
     applied = state.command if params.book_faithful else new_command
     _, (vertical_wind, _) = flat_columns(vertical_wind, state.speed)  # (n,), however it was given
@@ -275,6 +286,7 @@ def step(
 
 def tracking_errors(state: AircraftState, demand: np.ndarray) -> np.ndarray:
     """Errors (n, 3) to the demand ``(y_d, v_d, psi_d)``: ``(y_d - y, v_d - v, wrap(psi_d - psi))`` (8.118-8.125)."""
+    demand = _commands(demand)
     return np.stack(
         [
             demand[:, 0] - state.position[:, 1],
@@ -291,7 +303,7 @@ def autopilot(errors: np.ndarray, params: AircraftParams, gains: AutopilotGains)
     ``a = clip(k_a v_err, -A_dec, A_acc)``, ``v_y = clip(k_v y_err, -V_des, V_cli)``,
     ``omega = clip(k_psi wrap(psi_err), -M, M)``; returns commands (n, 3) in SI units.
     """
-    errors = np.asarray(errors, dtype=np.float64)
+    errors = _commands(errors)
     raw = np.stack(
         [gains.speed_gain * errors[:, 1], gains.climb_gain * errors[:, 0], gains.heading_gain * wrap(errors[:, 2])],
         axis=-1,
@@ -307,6 +319,7 @@ def book_autopilot(
     Speed and altitude loops as in :func:`autopilot`; the heading loop is 8.126,
     ``v_x = clip(k_phi (psi_d - psi), -V, V)`` with ``V = v tan(M dt)`` and the error *not* wrapped.
     """
+    demand = _commands(demand)
     command = autopilot(tracking_errors(state, demand), params, gains)
     lateral = lateral_limit(state.speed, dt, params)
     command[:, 2] = np.clip(gains.book_heading_gain * (demand[:, 2] - state.heading), -lateral, lateral)
@@ -316,7 +329,7 @@ def book_autopilot(
 def command_from_action(action: np.ndarray, params: AircraftParams) -> np.ndarray:
     """Commands (n, 3) in SI from normalised actions in [-1, 1]: ``u >= 0`` scales the upper limits, ``u < 0``
     the lower ones, so 0 holds speed, altitude and heading."""
-    action = np.asarray(action, dtype=np.float64)
+    action = _commands(action)
     command = np.empty(action.shape)
     for j, (low, high) in enumerate(zip(params.command_low, params.command_high, strict=True)):
         u = action[:, j]
@@ -326,7 +339,7 @@ def command_from_action(action: np.ndarray, params: AircraftParams) -> np.ndarra
 
 def action_from_command(command: np.ndarray, params: AircraftParams) -> np.ndarray:
     """Inverse of :func:`command_from_action` on the saturation box (commands are clipped to it first)."""
-    command = _clip_columns(np.asarray(command, dtype=np.float64), params.command_low, params.command_high)
+    command = _clip_columns(_commands(command), params.command_low, params.command_high)
     for j, (low, high) in enumerate(zip(params.command_low, params.command_high, strict=True)):
         c = command[:, j]
         command[:, j] = c / np.where(c >= 0.0, high, -low)

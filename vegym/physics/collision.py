@@ -22,6 +22,7 @@ import math
 import numpy as np
 from numba import njit
 
+from vegym.params import check_values
 from vegym.physics.columns import flat_columns
 
 
@@ -149,6 +150,17 @@ def _reduced_mass_each(m_a: np.ndarray, m_b: np.ndarray) -> np.ndarray:
     return out
 
 
+def _check_impact(mass_a: np.ndarray | float, mass_b: np.ndarray | float, restitution: np.ndarray | float) -> None:
+    """``ValueError`` for a mass that is not positive or a restitution outside [0, 1] (e > 1 creates energy)."""
+    check_values("mass_a", mass_a, 0.0, math.inf, low_open=True, high_open=True)
+    check_values("mass_b", mass_b, 0.0, math.inf, low_open=True, high_open=True)
+    check_values("restitution", restitution, 0.0, 1.0)
+
+
+def _check_deceleration(deceleration: np.ndarray | float) -> None:
+    check_values("deceleration", deceleration, 0.0, math.inf, low_open=True, high_open=True)
+
+
 def reduced_mass(mass_a: np.ndarray, mass_b: np.ndarray) -> np.ndarray:
     """``mu = m_a m_b / (m_a + m_b)`` (kg), by :func:`reduced_mass_one` (any broadcastable shapes)."""
     shape, (m_a, m_b) = flat_columns(mass_a, mass_b)
@@ -165,6 +177,7 @@ def direct_impact(
     """
     v_a, v_b = np.asarray(v_a, dtype=np.float64), np.asarray(v_b, dtype=np.float64)
     m_a, m_b, e = (np.asarray(x, dtype=np.float64) for x in (mass_a, mass_b, restitution))
+    _check_impact(m_a, m_b, e)
     total = m_a + m_b
     return ((m_a - e * m_b) * v_a + (1.0 + e) * m_b * v_b) / total, (
         (m_b - e * m_a) * v_b + (1.0 + e) * m_a * v_a
@@ -185,6 +198,7 @@ def oblique_impact(
     The impulse form of PHYSICS.md section 5 along the line of centres ``n``; spheres that are not closing
     (``w = (v_a - v_b) . n <= 0``) keep their velocities.
     """
+    _check_impact(mass_a, mass_b, restitution)
     shape, rows, columns = _rows([c_a, c_b, v_a, v_b], [mass_a, mass_b, restitution])
     u_a, u_b = _impact_each(*rows, *columns)
     return u_a.reshape(shape), u_b.reshape(shape)
@@ -234,6 +248,7 @@ def slide(position: np.ndarray, velocity: np.ndarray, deceleration: float) -> tu
 
     Constant deceleration ``a`` (m/s^2) along the motion: distance ``|v|^2 / (2 a)``, time ``|v| / a``.
     """
+    _check_deceleration(deceleration)
     shape, (position, velocity), _ = _rows([position, velocity], [])
     rest, distance, time = _slide_each(position, velocity, float(deceleration))
     return rest.reshape(shape), distance.reshape(shape[:-1]), time.reshape(shape[:-1])
@@ -241,11 +256,13 @@ def slide(position: np.ndarray, velocity: np.ndarray, deceleration: float) -> tu
 
 def speed_after(speed: np.ndarray, distance: np.ndarray, deceleration: float) -> np.ndarray:
     """Speed (m/s) of a ball launched at ``speed`` after sliding ``distance`` (m): ``sqrt(v^2 - 2 a s)``, >= 0."""
+    _check_deceleration(deceleration)
     shape, columns = flat_columns(speed, distance, deceleration)
     return _speed_after_each(*columns).reshape(shape)[()]
 
 
 def launch_speed(speed: np.ndarray, distance: np.ndarray, deceleration: float) -> np.ndarray:
     """Speed (m/s) to launch a ball at so that it still has ``speed`` after ``distance`` m: ``sqrt(v^2 + 2 a s)``."""
+    _check_deceleration(deceleration)
     speed = np.asarray(speed, dtype=np.float64)
     return np.sqrt(speed * speed + 2.0 * deceleration * np.asarray(distance, dtype=np.float64))

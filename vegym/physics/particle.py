@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from vegym.params import Params, param
+from vegym.params import Params, check_values, param
 from vegym.physics.columns import flat_columns
 
 STANDARD_GRAVITY = 9.81
@@ -99,6 +99,11 @@ def _impulse_each(v_n: np.ndarray, restitution: np.ndarray) -> np.ndarray:
     return out
 
 
+def _check_gravity(gravity: float) -> None:
+    """``ValueError`` unless ``gravity`` is a positive magnitude (m/s^2): the gravity vector is ``(0, -g, 0)``."""
+    check_values("gravity", gravity, 0.0, math.inf, low_open=True, high_open=True)
+
+
 def time_to_ground(h: np.ndarray, v: np.ndarray, radius: float, gravity: float) -> np.ndarray:
     """Exact time until the centre reaches ``h = radius`` (the corrected 8.8/8.11).
 
@@ -108,6 +113,7 @@ def time_to_ground(h: np.ndarray, v: np.ndarray, radius: float, gravity: float) 
     ``v^2 + 2 g (h - r) < 0``, otherwise 0 moving down and, moving up, the time it falls back through ``h = r``
     (the later root).
     """
+    _check_gravity(gravity)
     shape, (h, v) = flat_columns(h, v)
     return _ground_each(h, v, float(radius), float(gravity))[0].reshape(shape)[()]
 
@@ -117,12 +123,14 @@ def impact_velocity(h: np.ndarray, v: np.ndarray, radius: float, gravity: float)
 
     Exact by energy conservation; equal to ``v - g * time_to_ground(...)``.
     """
+    _check_gravity(gravity)
     shape, (h, v) = flat_columns(h, v)
     return _ground_each(h, v, float(radius), float(gravity))[1].reshape(shape)[()]
 
 
 def apex_height(h: np.ndarray, v: np.ndarray, gravity: float) -> np.ndarray:
     """Highest height of the centre in free flight from (h, v); ``h`` itself when moving down."""
+    _check_gravity(gravity)
     shape, (h, v) = flat_columns(h, v)
     return _apex_each(h, v, float(gravity)).reshape(shape)[()]
 
@@ -134,6 +142,7 @@ def restitute(velocity: np.ndarray, normal: np.ndarray, restitution: np.ndarray)
     has shape (n,) or is a scalar. The normal component is reversed and scaled by e, the tangential one
     kept; a particle already leaving the surface (``v . N >= 0``) is returned unchanged.
     """
+    check_values("restitution", restitution, 0.0, 1.0)
     velocity = np.asarray(velocity, dtype=np.float64)
     normal = np.broadcast_to(np.asarray(normal, dtype=np.float64), velocity.shape)
     v_n = np.sum(velocity * normal, axis=-1)
@@ -166,8 +175,7 @@ def event_step(
     for name, values in (("h", h), ("v", v), ("restitution", e)):
         if not np.all(np.isfinite(values)):
             raise ValueError(f"{name} must be finite, got {float(values[~np.isfinite(values)][0])!r}")
-    if np.any((e < 0.0) | (e > 1.0)):
-        raise ValueError(f"restitution={float(e[(e < 0.0) | (e > 1.0)][0])!r} is outside the allowed range [0, 1]")
+    check_values("restitution", e, 0.0, 1.0)
     if not (math.isfinite(dt) and dt >= 0.0):
         raise ValueError(f"dt={dt!r} is outside the allowed range [0, inf) s")
     if not rest_speed > 0.0:  # a bounce that never stops rebounding loops forever (Zeno)

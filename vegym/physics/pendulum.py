@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from vegym.params import Params, param
+from vegym.params import Params, check_values, param
 from vegym.physics import vmath
 from vegym.physics.columns import flat_columns
 from vegym.physics.particle import STANDARD_GRAVITY
@@ -186,5 +186,6 @@ def pump_torque(
     The torque's power ``tau omega = k_E (E* - E) omega^2`` has the sign of ``E* - E``, so the energy moves
     toward ``E* = m g L (1 - cos theta*)``; ``gain`` k_E is in N m per (J rad/s).
     """
+    check_values("max_torque", max_torque, 0.0, math.inf, high_open=True)
     error = amplitude_energy(target_amplitude, params) - energy(theta, omega, params)
     return np.clip(gain * error * omega, -max_torque, max_torque)

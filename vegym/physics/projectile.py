@@ -70,12 +70,14 @@ def position_at(
     p0: np.ndarray, v0: np.ndarray, wind: np.ndarray, t: np.ndarray, params: ProjectileParams
 ) -> np.ndarray:
     """Position (n, 3) at time ``t`` (n,) after launch: ``p0 + (v0 + w) t + 1/2 g_vec t^2`` (8.69-8.71)."""
+    p0, v0, wind = (np.asarray(a, dtype=np.float64) for a in (p0, v0, wind))
     t = np.asarray(t, dtype=np.float64)[..., None]
     return p0 + (v0 + wind) * t + 0.5 * params.gravity_vector * t * t
 
 
 def velocity_at(v0: np.ndarray, wind: np.ndarray, t: np.ndarray, params: ProjectileParams) -> np.ndarray:
     """Ground-relative velocity (n, 3) at time ``t``: ``v0 + w + g_vec t``."""
+    v0, wind = np.asarray(v0, dtype=np.float64), np.asarray(wind, dtype=np.float64)
     return v0 + wind + params.gravity_vector * np.asarray(t, dtype=np.float64)[..., None]
 
 

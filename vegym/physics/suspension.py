@@ -193,13 +193,24 @@ def terrain(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Height (m) and slope of an undulating terrain ``sum_j A_j sin(kappa_j x + phi_j)`` at ``distance`` x (n,).
 
-    ``amplitude`` (m), ``wavenumber`` (rad/m) and ``phase`` (rad) are (n, J) arrays, one row per terrain
-    (:func:`terrain_into`).
+    ``amplitude`` (m), ``wavenumber`` (rad/m) and ``phase`` (rad) are (n, J) arrays, one row per terrain, or
+    (1, J) (or (J,)): one terrain at every distance (:func:`terrain_into`). Other shapes raise ``ValueError``.
     """
-    height, slope = np.empty(len(distance)), np.empty(len(distance))
-    terrain_into(
-        *(np.ascontiguousarray(a, dtype=np.float64) for a in (distance, amplitude, wavenumber, phase)), height, slope
-    )
+    distance = np.ascontiguousarray(np.atleast_1d(np.asarray(distance, dtype=np.float64)))
+    if distance.ndim != 1:
+        raise ValueError(f"distance has shape {distance.shape}; the allowed shapes are (n,) and ()")
+    n = len(distance)
+    rows = [np.atleast_2d(np.asarray(a, dtype=np.float64)) for a in (amplitude, wavenumber, phase)]
+    waves = rows[0].shape[-1]
+    for name, values in zip(("amplitude", "wavenumber", "phase"), rows, strict=True):
+        if values.ndim != 2 or values.shape[0] not in (1, n) or values.shape[1] != waves:
+            raise ValueError(
+                f"{name} has shape {values.shape}; the allowed shapes for {n} distances and {waves} sinusoids are "
+                f"({n}, {waves}), one terrain per distance, and (1, {waves}), one terrain for all"
+            )
+    rows = [np.ascontiguousarray(np.broadcast_to(values, (n, waves))) for values in rows]
+    height, slope = np.empty(n), np.empty(n)
+    terrain_into(distance, *rows, height, slope)
     return height, slope
 
 

@@ -235,6 +235,16 @@ def energies(
         out[i] = out[i] + 0.5 * stiffness * total[i]
 
 
+def _check_positions(positions: np.ndarray | list, params: ThreadParams) -> None:
+    """``ValueError`` unless ``positions`` is a batch (n, N, 2) of the parameters' N interior nodes."""
+    shape = np.shape(positions)
+    if len(shape) != 3 or shape[1:] != (params.n_nodes, 2):
+        hint = "; add the batch axis, positions[None]" if shape == (params.n_nodes, 2) else ""
+        raise ValueError(
+            f"positions must have shape (n, {params.n_nodes}, 2) (n_nodes={params.n_nodes}), got {shape}{hint}"
+        )
+
+
 def _columns(*arrays: np.ndarray | float) -> list[np.ndarray]:
     """``arrays`` broadcast to one batch shape (n, N, 2), as new C-contiguous float64 arrays in the column layout
     (N, 2, n) of the compiled functions."""
@@ -260,6 +270,7 @@ def acceleration(
     positions: np.ndarray, velocities: np.ndarray, forces: np.ndarray | float, params: ThreadParams
 ) -> np.ndarray:
     """Node accelerations (n, N, 2) (m/s^2): springs, gravity, drag and the applied forces ``u`` (N)."""
+    _check_positions(positions, params)
     positions, velocities, forces = _columns(positions, velocities, forces)
     n_nodes, _, n = positions.shape
     out = np.empty_like(positions)
@@ -280,6 +291,7 @@ def step(
             f"dt={dt!r} is outside the stable range (0, {params.stable_step:.4g}) s: semi-implicit Euler needs "
             "dt < sqrt(m/S) and dt < m/c; split the step (thread.substeps)"
         )
+    _check_positions(positions, params)
     positions, velocities, forces = _columns(positions, velocities, forces)
     n_nodes, _, n = positions.shape
     chain, scale, tensions = (
@@ -299,6 +311,7 @@ def substeps(dt: float, params: ThreadParams, margin: float = 0.5) -> int:
 def energy(positions: np.ndarray, velocities: np.ndarray, params: ThreadParams) -> np.ndarray:
     """Mechanical energy (n,) (J): kinetic ``sum m |v|^2 / 2`` + gravity ``sum m g y`` + elastic
     ``sum S (L - l)^2 / 2``."""
+    _check_positions(positions, params)
     positions, velocities = _columns(positions, velocities)
     out = np.empty(positions.shape[2])
     scratch = np.empty((2 * len(positions) + 1, len(out)))

@@ -65,13 +65,7 @@ class SuspensionRenderer:
         panel.frame(canvas.LIGHT)
         wheel_radius = WHEEL_PIXELS / panel.scale[1]
         road = np.linspace(x - WINDOW, x + WINDOW, 241)
-        rows = len(road)
-        terrain, _ = suspension.terrain(
-            road,
-            np.repeat(s["amplitude"], rows, axis=0),
-            np.repeat(s["wavenumber"], rows, axis=0),
-            np.repeat(s["phase"], rows, axis=0),
-        )
+        terrain, _ = suspension.terrain(road, s["amplitude"], s["wavenumber"], s["phase"])  # one row: every x
         ground = np.stack([road, terrain - s["offset"][0] - wheel_radius], -1)
         panel.polygon(np.concatenate([ground, [[road[-1], world[2]], [road[0], world[2]]]]), canvas.LIGHT)
         panel.polyline(ground, canvas.BLACK, 2)

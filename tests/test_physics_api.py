@@ -1,0 +1,118 @@
+"""The physics layer used directly, as a worked example would: shapes a student passes and parameters outside their
+ranges either work as documented or raise a ValueError naming the parameter, its value and the allowed range."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from vegym.physics import aircraft, collision, particle, pendulum, projectile, suspension, thread
+
+
+def test_terrain_of_one_road_at_many_distances() -> None:
+    """One terrain row (1, J) evaluated along a road: broadcast to every distance, no read past the row."""
+    x = np.linspace(0.0, 10.0, 500)
+    amplitude, wavenumber, phase = [[0.1, 0.05]], [[1.0, 3.0]], [[0.0, 0.5]]
+    height, slope = suspension.terrain(x, amplitude, wavenumber, phase)
+    expected = 0.1 * np.sin(x) + 0.05 * np.sin(3.0 * x + 0.5)
+    np.testing.assert_allclose(height, expected, atol=1e-15)
+    np.testing.assert_allclose(slope, 0.1 * np.cos(x) + 0.15 * np.cos(3.0 * x + 0.5), atol=1e-15)
+
+
+def test_terrain_rows_that_do_not_match_the_distances_raise() -> None:
+    with pytest.raises(ValueError, match="amplitude"):
+        suspension.terrain(np.zeros(3), np.ones((2, 1)), np.ones((2, 1)), np.zeros((2, 1)))
+
+
+@pytest.mark.parametrize("e", [-0.5, 1.5, math.nan])
+def test_impacts_refuse_a_restitution_outside_0_1(e: float) -> None:
+    """event_step refuses e outside [0, 1]; so do the other impact laws (e > 1 creates energy)."""
+    calls = [
+        lambda: particle.restitute([1.0, -2.0, 0.0], [0.0, 1.0, 0.0], e),
+        lambda: collision.direct_impact(2.0, -4.0, 5.0, 3.0, e),
+        lambda: collision.oblique_impact([0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [-4.0, 0.0], 5.0, 3.0, e),
+    ]
+    for call in calls:
+        with pytest.raises(ValueError, match=r"restitution=.*\[0, 1\]"):
+            call()
+
+
+@pytest.mark.parametrize("a", [0.0, -0.5])
+def test_table_laws_refuse_a_deceleration_that_is_not_positive(a: float) -> None:
+    for call in (
+        lambda: collision.slide([0.0, 0.0], [1.0, 0.0], a),
+        lambda: collision.speed_after(1.0, 0.5, a),
+        lambda: collision.launch_speed(1.0, 0.5, a),
+    ):
+        with pytest.raises(ValueError, match=r"deceleration=.*\(0, inf\)"):
+            call()
+
+
+@pytest.mark.parametrize("g", [0.0, -9.81])
+def test_particle_laws_refuse_a_gravity_that_is_not_a_positive_magnitude(g: float) -> None:
+    """g is a positive magnitude (PHYSICS.md section 0); -9.81 would give an apex below the launch, silently."""
+    for call in (
+        lambda: particle.time_to_ground(10.0, 0.0, 0.0, g),
+        lambda: particle.impact_velocity(10.0, 0.0, 0.0, g),
+        lambda: particle.apex_height(0.0, 10.0, g),
+    ):
+        with pytest.raises(ValueError, match=r"gravity=.*\(0, inf\)"):
+            call()
+
+
+def test_pump_torque_refuses_a_negative_torque_limit() -> None:
+    """np.clip(x, 1, -1) returns -1 everywhere: the pump would brake the swing it should drive."""
+    with pytest.raises(ValueError, match=r"max_torque=-1.0 .*\[0, inf\)"):
+        pendulum.pump_torque(0.1, 0.5, math.radians(45.0), 1.0, -1.0, pendulum.PendulumParams())
+
+
+@pytest.mark.parametrize("dt", [0.0, -0.5, math.nan])
+def test_aircraft_step_refuses_a_step_that_is_not_positive(dt: float) -> None:
+    state = aircraft.initial_state([0.0, 1000.0, 0.0], 100.0, 0.0)
+    with pytest.raises(ValueError, match=r"dt=.*\(0, inf\)"):
+        aircraft.step(state, [[0.0, 0.0, 0.0]], dt, aircraft.AircraftParams())
+
+
+def test_one_aircraft_takes_single_commands_and_demands() -> None:
+    """initial_state takes one aircraft's (3,) position; its step, errors, autopilot and action maps take (3,) too."""
+    params, gains = aircraft.AircraftParams(), aircraft.AutopilotGains()
+    state = aircraft.initial_state([0.0, 1000.0, 0.0], 100.0, 0.0)
+    errors = aircraft.tracking_errors(state, [1500.0, 150.0, 1.0])
+    np.testing.assert_array_equal(errors, [[500.0, 50.0, 1.0]])
+    command = aircraft.autopilot([500.0, 50.0, 1.0], params, gains)
+    np.testing.assert_array_equal(command, aircraft.autopilot([[500.0, 50.0, 1.0]], params, gains))
+    new, _ = aircraft.step(state, [0.0, 0.0, 0.0], 0.5, params)
+    np.testing.assert_array_equal(new.position, [[0.0, 1000.0, 50.0]])
+    action = aircraft.action_from_command([1.5, -10.0, 0.0], params)
+    np.testing.assert_array_equal(aircraft.command_from_action([1.0, -1.0, 0.0], params), [[1.5, -10.0, 0.0]])
+    np.testing.assert_array_equal(action, [[1.0, -1.0, 0.0]])
+
+
+def test_thread_positions_must_match_the_parameters() -> None:
+    """A thread of 5 nodes with parameters for 9 used to run as a 5-node thread; an unbatched (N, 2) shape, as
+    static_equilibrium returns, used to fail with numpy's 'axes don't match array'."""
+    p = thread.ThreadParams()
+    rest = thread.static_equilibrium(p)
+    x = np.linspace(0.0, p.span, 7)[1:-1]
+    five = np.stack([x, np.full(5, -0.05)], axis=-1)[None]
+    for call in (
+        lambda: thread.acceleration(five, 0.0, 0.0, p),
+        lambda: thread.step(five, 0.0, 0.0, 1e-3, p),
+        lambda: thread.energy(five, 0.0, p),
+    ):
+        with pytest.raises(ValueError, match=r"positions.*\(n, 9, 2\)"):
+            call()
+    with pytest.raises(ValueError, match=r"positions.*\(n, 9, 2\).*\(9, 2\)"):
+        thread.step(rest, 0.0, 0.0, 1e-3, p)
+    assert thread.step(rest[None], 0.0, 0.0, 1e-3, p)[0].shape == (1, 9, 2)
+
+
+def test_projectile_position_and_velocity_take_lists() -> None:
+    """Lists used to be concatenated (``[10, 10, 0] + [0, 0, 0]`` has six elements) before numpy saw them."""
+    params = projectile.ProjectileParams()
+    np.testing.assert_allclose(
+        projectile.position_at([0, 0, 0], [10, 10, 0], [1, 0, 0], 1.0, params), [11.0, 10.0 - 4.905, 0.0]
+    )
+    np.testing.assert_allclose(projectile.velocity_at([10, 10, 0], [1, 0, 0], 1.0, params), [11.0, 0.19, 0.0])
