@@ -116,3 +116,19 @@ def test_projectile_position_and_velocity_take_lists() -> None:
         projectile.position_at([0, 0, 0], [10, 10, 0], [1, 0, 0], 1.0, params), [11.0, 10.0 - 4.905, 0.0]
     )
     np.testing.assert_allclose(projectile.velocity_at([10, 10, 0], [1, 0, 0], 1.0, params), [11.0, 0.19, 0.0])
+
+
+@pytest.mark.parametrize("dt", [0.0, -0.01, math.nan])
+def test_pendulum_and_spring_steps_refuse_a_step_that_is_not_positive(dt: float) -> None:
+    with pytest.raises(ValueError, match=r"dt=.*\(0, inf\)"):
+        pendulum.step(0.1, 0.0, 0.0, dt, pendulum.PendulumParams())
+    with pytest.raises(ValueError, match=r"dt=.*\(0, inf\)"):
+        suspension.step(0.3, 0.0, 0.0, 0.0, 1000.0, dt, suspension.SpringParams())
+
+
+def test_an_impact_of_spheres_at_one_centre_raises() -> None:
+    """The line of centres is undefined there; the compiled kernel divided by zero."""
+    with pytest.raises(ValueError, match=r"c_a and c_b coincide at \[1.0, 2.0\]"):
+        collision.oblique_impact(
+            [[0.0, 0.0], [1.0, 2.0]], [[1.0, 0.0], [1.0, 2.0]], [1.0, 0.0], [0.0, 0.0], 1.0, 1.0, 1.0
+        )

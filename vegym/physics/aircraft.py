@@ -328,7 +328,8 @@ def book_autopilot(
 
 def command_from_action(action: np.ndarray, params: AircraftParams) -> np.ndarray:
     """Commands (n, 3) in SI from normalised actions in [-1, 1]: ``u >= 0`` scales the upper limits, ``u < 0``
-    the lower ones, so 0 holds speed, altitude and heading."""
+    the lower ones, so 0 holds speed, altitude and heading. Actions outside [-1, 1] map past the limits, unclipped
+    (:func:`step` saturates commands)."""
     action = _commands(action)
     command = np.empty(action.shape)
     for j, (low, high) in enumerate(zip(params.command_low, params.command_high, strict=True)):

@@ -196,10 +196,14 @@ def oblique_impact(
     """Velocities ``(u_a, u_b)`` (n, d) after spheres at ``c_a``, ``c_b`` (in contact) meet with ``v_a``, ``v_b``.
 
     The impulse form of PHYSICS.md section 5 along the line of centres ``n``; spheres that are not closing
-    (``w = (v_a - v_b) . n <= 0``) keep their velocities.
+    (``w = (v_a - v_b) . n <= 0``) keep their velocities. Coincident centres (no line of centres) raise
+    ``ValueError``.
     """
     _check_impact(mass_a, mass_b, restitution)
     shape, rows, columns = _rows([c_a, c_b, v_a, v_b], [mass_a, mass_b, restitution])
+    coincident = np.all(rows[0] == rows[1], axis=-1)
+    if np.any(coincident):
+        raise ValueError(f"c_a and c_b coincide at {rows[0][np.argmax(coincident)].tolist()}: no line of centres")
     u_a, u_b = _impact_each(*rows, *columns)
     return u_a.reshape(shape), u_b.reshape(shape)
 

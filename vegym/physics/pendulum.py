@@ -148,7 +148,8 @@ def step(
     theta: np.ndarray, omega: np.ndarray, torque: np.ndarray | float, dt: float, params: PendulumParams
 ) -> tuple[np.ndarray, np.ndarray]:
     """One semi-implicit Euler step of ``dt`` seconds with the torque held: the new (theta, omega). theta is not
-    wrapped."""
+    wrapped; ``dt`` must be positive."""
+    check_values("dt", dt, 0.0, math.inf, low_open=True, high_open=True)
     p = params
     shape, (theta, omega, torque) = flat_columns(theta, omega, torque)
     new_theta, new_omega = _swing_each(theta, omega, torque, float(dt), p.gravity / p.length, p.damping, p.inertia)
