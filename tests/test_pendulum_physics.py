@@ -45,6 +45,21 @@ def test_period_matches_the_elliptic_integral_to_4_digits_from_5_to_150_degrees(
     np.testing.assert_allclose(periods, exact, rtol=1e-5)
     small_angle_error = exact / FREE.small_angle_period - 1.0
     np.testing.assert_allclose(small_angle_error, [0.0005, 0.0037, 0.073, 0.76], rtol=0.05)
+    np.testing.assert_array_equal(pendulum.period(amplitudes, FREE), exact)
+
+
+def test_the_exact_period_starts_at_the_small_angle_period_and_grows_without_bound() -> None:
+    """T(0) = T0 exactly; ``T = T0 (1 + theta0^2 / 16 + 11 theta0^4 / 3072 + ...)`` for small swings; infinite at pi
+    (the inverted balance); amplitudes outside [0, pi] raise."""
+    assert pendulum.period(0.0, FREE) == FREE.small_angle_period
+    small = np.array([1e-3, 1e-2, 0.1])
+    series = FREE.small_angle_period * (1.0 + small**2 / 16.0 + 11.0 * small**4 / 3072.0)
+    np.testing.assert_allclose(pendulum.period(small, FREE), series, rtol=1e-7)
+    assert pendulum.period(math.pi, FREE) == math.inf
+    assert np.all(np.diff(pendulum.period(np.linspace(0.0, 3.0, 50), FREE)) > 0.0)
+    for bad in (-0.1, 3.2, math.nan):
+        with pytest.raises(ValueError, match=r"amplitude=.*\[0, 3.14159\]"):
+            pendulum.period(bad, FREE)
 
 
 def run(params: PendulumParams, explicit: bool, dt: float = 0.01, steps: int = 6000) -> np.ndarray:

@@ -167,6 +167,17 @@ def amplitude_energy(amplitude: np.ndarray, params: PendulumParams) -> np.ndarra
     return energy(amplitude, 0.0, params)
 
 
+def period(amplitude: np.ndarray, params: PendulumParams) -> np.ndarray:
+    """Exact period (s) of the undamped swing of amplitude theta0 (rad, in ``[0, pi]``):
+    ``T = 4 sqrt(L/g) K(sin^2(theta0 / 2))`` (PHYSICS.md section 7; ``K`` the complete elliptic integral of the first
+    kind, scipy's ``ellipk`` of the parameter ``m = k^2``). ``T0 = 2 pi sqrt(L/g)`` at 0, infinite at ``pi``."""
+    from scipy.special import ellipk  # here, not at import: only this function needs scipy
+
+    check_values("amplitude", amplitude, 0.0, math.pi)
+    half_sine = np.sin(0.5 * np.asarray(amplitude, dtype=np.float64))
+    return 4.0 * math.sqrt(params.length / params.gravity) * ellipk(half_sine * half_sine)
+
+
 def energy_amplitude(energy_: np.ndarray, params: PendulumParams) -> np.ndarray:
     """Amplitude (rad) of the undamped swing with this energy: ``arccos(1 - E / (m g L))``; pi from ``2 m g L`` up
     (the pendulum goes over the top), 0 for ``E <= 0``."""
