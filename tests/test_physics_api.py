@@ -132,3 +132,18 @@ def test_an_impact_of_spheres_at_one_centre_raises() -> None:
         collision.oblique_impact(
             [[0.0, 0.0], [1.0, 2.0]], [[1.0, 0.0], [1.0, 2.0]], [1.0, 0.0], [0.0, 0.0], 1.0, 1.0, 1.0
         )
+
+
+def test_free_flight_spring_energy_and_skyhook_take_lists() -> None:
+    """As the other array functions do; lists used to raise TypeError (``list * list``)."""
+    h, v = particle.state_at([10.0, 5.0], [0.0, 2.0], [1.0, 1.0], 9.81)
+    np.testing.assert_allclose(h, [10.0 - 4.905, 5.0 + 2.0 - 4.905])
+    np.testing.assert_allclose(v, [-9.81, 2.0 - 9.81])
+    spring = suspension.SpringParams()
+    np.testing.assert_array_equal(
+        suspension.energy([0.3, 0.4], [0.0, 1.0], [0.0, 0.0], spring),
+        suspension.energy(np.array([0.3, 0.4]), np.array([0.0, 1.0]), np.zeros(2), spring),
+    )
+    np.testing.assert_array_equal(
+        suspension.continuous_skyhook_damping([1.0, -1.0], [2.0, 0.5], 1000.0, 100.0, 3000.0), [500.0, 100.0]
+    )

@@ -150,6 +150,7 @@ def step(
 def energy(height: np.ndarray, velocity: np.ndarray, base: np.ndarray, params: SpringParams) -> np.ndarray:
     """Mechanical energy (J) with the base held at ``base``: ``m v^2 / 2 + m g y + k (y - y_b - l)^2 / 2``."""
     p = params
+    height, velocity, base = (np.asarray(x, dtype=np.float64) for x in (height, velocity, base))
     extension = height - base - p.natural_length
     return 0.5 * p.mass * velocity * velocity + p.mass * p.gravity * height + 0.5 * p.stiffness * extension * extension
 
@@ -235,6 +236,7 @@ def continuous_skyhook_damping(
     wherever the damper's range reaches it; with ``c_sky = c_max`` it is stiff exactly where the on-off law is
     stiff and the relative velocity is at most the body's.
     """
+    body_velocity, relative_velocity = np.asarray(body_velocity, np.float64), np.asarray(relative_velocity, np.float64)
     opposing = body_velocity * relative_velocity > 0.0
     ratio = np.divide(c_sky * body_velocity, relative_velocity, out=np.zeros(np.shape(opposing)), where=opposing)
     return np.where(opposing, np.clip(ratio, c_min, c_max), c_min)
