@@ -64,9 +64,11 @@ def test_gear_teeth_keep_their_pitch_up_to_a_cap() -> None:
         ("vegym/SteerableWheel-v0", {"arena_size": 1e7}),
         ("vegym/BouncingBall-v0", {"drop_height": 1e7}),
         ("vegym/Billiards-v0", {"target_radius": 1e5}),
+        ("vegym/Suspension-v0", {"damping_min": 1000.0, "damping_max": 1000.0}),  # a fixed damper: no range
+        ("vegym/Aircraft-v0", {"wind_x": 1e-300}),  # a wind whose np.linalg.norm underflows to 0
     ],
 )
-def test_huge_scenes_draw_their_frames(env_id: str, params: dict) -> None:
+def test_huge_and_degenerate_scenes_draw_their_frames(env_id: str, params: dict) -> None:
     env = gym.make(env_id, render_mode="rgb_array", **params)
     env.reset(seed=0)
     env.step(env.action_space.sample())

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -80,10 +81,11 @@ class AircraftRenderer:
         panel.polygon(outline, canvas.RED)
         wind = np.array([-self.params.wind_x, self.params.wind_z])  # in the view's coordinates
         if wind.any():
+            strength = math.hypot(*wind)  # np.linalg.norm underflows to 0 below about 1e-154 m/s
             tail = np.array([world[0] + 0.12 * span, world[3] - 0.2 * span])
-            panel.arrow(tail, 0.08 * span * wind / np.linalg.norm(wind), canvas.GREEN)
+            panel.arrow(tail, 0.08 * span * wind / strength, canvas.GREEN)
             label_x, label_y = panel.to_px(*(tail - [0.07 * span, 0.13 * span]))
-            canvas.text(surface, [f"wind {np.linalg.norm(wind):.1f} m/s"], (label_x, label_y), 16, canvas.GREEN)
+            canvas.text(surface, [f"wind {strength:.1f} m/s"], (label_x, label_y), 16, canvas.GREEN)
         bar = 1000.0 if span < 12000.0 else 5000.0
         x0, y0 = world[0] + 0.05 * span, world[2] + 0.05 * span
         panel.line((x0, y0), (x0 + bar, y0), canvas.BLACK, 3)

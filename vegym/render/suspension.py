@@ -135,13 +135,14 @@ class SuspensionRenderer:
         distance = float(self.state["distance"][0])
         lines = [f"t = {self.times[-1]:.2f} s   {distance:.1f} m at {p.speed:g} m/s   return {self.total_reward:+.3f}"]
         if self.last:
-            fraction = (self.last["damping"] - p.damping_min) / (p.damping_max - p.damping_min)
+            span = p.damping_max - p.damping_min  # 0 for a fixed damper
+            share = f" ({(self.last['damping'] - p.damping_min) / span:.0%} of the range)" if span > 0.0 else ""
             if abs(self.last["travel"]) > p.travel_limit:
                 verdict = "bump stop hit"
             else:
                 verdict = "comfortable so far" if self.last["is_success"] else "too uncomfortable"
             lines.append(
-                f"damper c = {self.last['damping']:.0f} N s/m ({fraction:.0%} of the range)   "
+                f"damper c = {self.last['damping']:.0f} N s/m{share}   "
                 f"RMS acceleration {self.last['rms_acceleration']:.2f} m/s^2: {verdict}"
             )
         canvas.text(surface, lines, (12, 10), 22)
