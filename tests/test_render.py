@@ -595,3 +595,246 @@ def test_a_panel_maps_many_points_to_the_pixels_it_maps_each_to() -> None:
     panel = canvas.Panel(canvas.new_surface(100, 80), (5, 5, 90, 70), (-3.3, 7.1, -2.2, 5.5))
     points = np.random.default_rng(0).uniform(-5.0, 9.0, (1000, 2))
     assert panel.pixels(points) == [list(panel.to_px(x, y)) for x, y in points]
+
+
+def ink(frame: np.ndarray, color: canvas.Color) -> np.ndarray:
+    """(row, col) of the pixels of ``color``."""
+    return np.argwhere(np.all(frame == color, axis=-1))
+
+
+def test_an_equal_aspect_panel_shows_its_whole_world_box_at_one_scale() -> None:
+    """The smaller of the two scales: a 10 m x 10 m box in a 200 x 100 px rectangle is 100 px tall, not 200."""
+    panel = canvas.Panel(canvas.new_surface(200, 100), (0, 0, 200, 100), (0.0, 10.0, 0.0, 10.0), equal_aspect=True)
+    assert panel.scale == (10.0, 10.0)
+    rect = panel.rect.inflate(2, 2)
+    assert all(rect.collidepoint(*panel.to_px(x, y)) for x in (0.0, 10.0) for y in (0.0, 10.0))
+
+
+def test_a_circle_s_radius_is_measured_along_x() -> None:
+    panel = canvas.Panel(canvas.new_surface(100, 100), (0, 0, 100, 100), (0.0, 10.0, 0.0, 50.0))  # 10 px/m, 2 px/m
+    assert panel.length_px(3.0) == 30
+    panel.circle((5.0, 25.0), 3.0, canvas.RED)
+    cols = ink(canvas.to_array(panel.surface), canvas.RED)[:, 1]
+    assert cols.max() - cols.min() + 1 == pytest.approx(60, abs=2)
+
+
+def test_a_dashed_line_is_drawn_as_its_dashes() -> None:
+    panel = canvas.Panel(canvas.new_surface(100, 20), (0, 0, 100, 20), (0.0, 100.0, 0.0, 20.0))
+    panel.dashed((0.0, 10.0), (100.0, 10.0), canvas.RED, dashes=5)
+    row = np.all(canvas.to_array(panel.surface)[10] == canvas.RED, axis=-1)
+    runs = np.flatnonzero(np.diff(row.astype(int)) == 1).size + int(row[0])
+    assert runs == 5 and 40 <= row.sum() <= 60  # 5 dashes, about half of the length
+
+
+def test_an_arrow_has_its_head_at_the_end() -> None:
+    panel = canvas.Panel(canvas.new_surface(100, 40), (0, 0, 100, 40), (0.0, 100.0, 0.0, 40.0))
+    panel.arrow((10.0, 20.0), (80.0, 0.0), canvas.RED, 1)  # from x = 10 to x = 90 px
+    cols = ink(canvas.to_array(panel.surface), canvas.RED)[:, 1]
+    height = np.bincount(cols, minlength=100)
+    assert height[80:91].max() >= 5 and height[10:21].max() <= 2  # the head's width near the end alone
+
+
+def test_text_writes_each_line_below_the_last_at_the_font_s_line_spacing() -> None:
+    surface = canvas.new_surface(60, 80)
+    canvas.text(surface, ["H", "H"], (5, 5), 18)
+    rows = np.unique(np.argwhere(np.any(canvas.to_array(surface) != canvas.WHITE, axis=-1))[:, 0])
+    bands = np.split(rows, np.flatnonzero(np.diff(rows) > 1) + 1)
+    assert len(bands) == 2
+    assert bands[1][0] - bands[0][0] == canvas.line_height(18) >= canvas.font(18).get_linesize()
+
+
+def test_a_window_shows_the_frame_s_colours_and_takes_its_own_title() -> None:
+    from vegym.render.window import Window
+
+    frame = np.zeros((30, 40, 3), np.uint8)
+    frame[...] = canvas.RED
+    first, second = Window("first", 1000.0), Window("second", 1000.0)
+    try:
+        first.show(frame)
+        assert tuple(pygame.display.get_surface().get_at((5, 5)))[:3] == canvas.RED
+        second.show(frame)  # the same size: the display must still take the second's title
+        assert pygame.display.get_caption()[0] == "second"
+    finally:
+        first.close()
+        second.close()
+
+
+def test_the_clock_s_second_hand_points_down_at_half_a_minute() -> None:
+    from vegym.render import clock
+
+    surface = canvas.new_surface(100, 100)
+    clock.draw_clock(surface, 30.0, (50, 50), 40)
+    frame = canvas.to_array(surface)
+    assert tuple(frame[50 + 26, 50]) == canvas.RED and tuple(frame[50 - 26, 50]) != canvas.RED
+
+
+def test_bouncing_ball_flights_are_parabolas_from_the_floor_to_their_apex(monkeypatch: pytest.MonkeyPatch) -> None:
+    polylines = record_calls(monkeypatch, canvas.Panel, "polyline")
+    env = gym.make("vegym/BouncingBall-v0", render_mode="rgb_array")
+    env.reset(seed=0)
+    info = env.step(np.zeros(1, np.float32))[-1]
+    polylines.clear()
+    env.render()
+    flight = np.asarray(polylines[-1][1])  # the flight just flown, drawn last
+    radius = env.unwrapped.params.radius
+    assert flight[0, 1] == pytest.approx(radius) and flight[-1, 1] == pytest.approx(radius, abs=1e-9)
+    assert flight[:, 1].max() == pytest.approx(info["apex_height"], rel=0.01)
+
+
+def billiards_strike(monkeypatch: pytest.MonkeyPatch, seed: int, action: tuple[float, float]) -> tuple:
+    circles, lines = (record_calls(monkeypatch, canvas.Panel, name) for name in ("circle", "line"))
+    env = gym.make("vegym/Billiards-v0", render_mode="rgb_array")
+    env.reset(seed=seed)
+    state = {k: v.copy() for k, v in env.unwrapped.state.items()}
+    info = env.step(np.array(action, np.float32))[-1]
+    circles.clear(), lines.clear()
+    env.render()
+    return env, state, info, circles, lines
+
+
+def test_billiards_draws_bearings_clockwise_the_balls_to_scale_and_b_s_path_from_b(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from vegym.envs.billiards import BilliardsTask
+    from vegym.render.billiards import BALL_B, SMALLEST_BALL
+
+    for seed in range(10):
+        env, state, info, circles, lines = billiards_strike(monkeypatch, seed, (0.3, 0.0))
+        p = env.unwrapped.params
+        _, along, across = BilliardsTask.line_frame(state)
+        a, b, target = state["ball_a"][0], state["ball_b"][0], state["target"][0]
+        # the target ring comes first: screen y (world, up) is minus the target's offset across the line
+        panel, drawn, *_ = circles[0]
+        assert drawn[1] == pytest.approx(-float((target - a) @ across[0]))
+        for panel, _, radius, *_ in circles:  # balls as large as they are, or 4 px
+            largest = max(p.radius_a, p.radius_b, p.target_radius)
+            assert panel.length_px(radius) <= max(panel.scale[0] * largest, SMALLEST_BALL) + 1
+        if info["contact"]:
+            ((_, start, *_),) = [call for call in lines if call[3] == BALL_B]
+            np.testing.assert_allclose(start, [float((b - a) @ along[0]), -float((b - a) @ across[0])], atol=1e-12)
+
+
+def test_gear_outlines_turn_with_their_angle() -> None:
+    angle = 0.3
+    turned = gear_outline(0.05, angle, 0.002)
+    rotation = np.array([[np.cos(angle), -np.sin(angle)], [np.sin(angle), np.cos(angle)]])
+    np.testing.assert_allclose(turned, gear_outline(0.05, 0.0, 0.002) @ rotation.T, atol=1e-12)
+
+
+def test_gear_hubs_lie_inside_their_gears(monkeypatch: pytest.MonkeyPatch) -> None:
+    polygons, circles = (record_calls(monkeypatch, canvas.Panel, name) for name in ("polygon", "circle"))
+    env = gym.make("vegym/GearTrain-v0", render_mode="rgb_array")
+    env.reset(seed=0)
+    env.render()
+    assert len(polygons) == len(circles) >= 2
+    for (_, outline, *_), (_, centre, radius, *_) in zip(polygons, circles, strict=True):
+        assert radius < np.linalg.norm(outline - centre, axis=1).min()
+
+
+def test_pendulum_is_drawn_anticlockwise_with_its_torque_and_a_bounded_trail(monkeypatch: pytest.MonkeyPatch) -> None:
+    from vegym.render.pendulum_pump import TRAIL
+
+    circles, arrows = (record_calls(monkeypatch, canvas.Panel, name) for name in ("circle", "arrow"))
+    env = gym.make("vegym/PendulumPump-v0", render_mode="rgb_array")
+    env.reset(seed=0)
+    length = env.unwrapped.params.length
+    for torque in (1.0, -1.0) * 30:
+        env.step(np.array([torque], np.float32))
+    circles.clear(), arrows.clear()
+    env.render()
+    theta = float(env.unwrapped.state["theta"][0])
+    bob = [centre for _, centre, _, color, *_ in circles if color == canvas.RED][-1]
+    np.testing.assert_allclose(bob, length * np.array([np.sin(theta), -np.cos(theta)]), atol=1e-9)
+    ((_, start, vector, *_),) = arrows  # the last torque, -1: clockwise about the pivot
+    assert start[0] * vector[1] - start[1] * vector[0] < 0.0
+    assert len(env.unwrapped._get_renderer().bobs) <= TRAIL + 1
+
+
+def adjust_renderer(wind: tuple[float, float, float], shots: list[tuple[float, float]]):  # noqa: ANN201
+    """A ProjectileAdjust renderer of a target 40 m along +x with the given wind and shots (miss along, across)."""
+    from vegym.render.projectile_adjust import ProjectileAdjustRenderer
+
+    env = gym.make("vegym/ProjectileAdjust-v0")
+    env.reset(seed=0)
+    state = {name: value.copy() for name, value in env.unwrapped.state.items()}
+    state["launch_position"][0], state["target"][0], state["wind"][0] = (0.0, 1.0, 0.0), (40.0, 1.0, 0.0), wind
+    renderer = ProjectileAdjustRenderer(env.unwrapped.params)
+    renderer.reset(state)
+    for along, across in shots:
+        renderer.shots.append(
+            {"launch_velocity": np.array([20.0, 10.0, 0.0]), "wind": np.array(wind), "flight_time": 2.0,
+             "miss_along": along, "miss_across": across, "miss_distance": math.hypot(along, across),
+             "is_success": False}
+        )  # fmt: skip
+    return renderer
+
+
+def test_projectile_adjust_top_view_fires_upward_with_bearing_to_the_right(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A landing 3 m long and 1 m to the right is a dot 3 m up and 1 m right; a tail wind is an arrow upward."""
+    dots, arrows = record_calls(monkeypatch, canvas.Panel, "dot"), record_calls(monkeypatch, canvas.Panel, "arrow")
+    adjust_renderer((3.0, 0.0, 0.0), [(3.0, 1.0)]).draw()
+    ((_, landing, *_),) = dots
+    np.testing.assert_allclose(landing, (1.0, 3.0))
+    ((_, _, vector, *_),) = arrows
+    assert vector[0] == pytest.approx(0.0) and vector[1] > 0.0
+
+
+def test_steerable_wheel_trail_and_arrow_follow_the_wheel(monkeypatch: pytest.MonkeyPatch) -> None:
+    polylines, arrows = (record_calls(monkeypatch, canvas.Panel, name) for name in ("polyline", "arrow"))
+    env = gym.make("vegym/SteerableWheel-v0", render_mode="rgb_array")
+    env.reset(seed=0)
+    for _ in range(15):
+        env.step(np.array([1.0, 0.4], np.float32))
+    polylines.clear(), arrows.clear()
+    env.render()
+    x, z = env.unwrapped.state["position"][0]
+    ((_, trail, *_),) = [call for call in polylines if call[2] == canvas.BLUE]
+    np.testing.assert_allclose(trail[-1], (x, -z))  # the trail ends at the wheel (z down)
+    ((_, centre, ahead, *_),) = arrows
+    assert np.dot(ahead, trail[-1] - trail[-2]) > 0.0  # the arrow points the way the wheel rolls
+
+
+def test_suspension_wheel_sits_on_the_road_between_its_bump_stops(monkeypatch: pytest.MonkeyPatch) -> None:
+    from vegym.render.suspension import WHEEL_PIXELS
+
+    polylines, lines = (record_calls(monkeypatch, canvas.Panel, name) for name in ("polyline", "line"))
+    env = gym.make("vegym/Suspension-v0", render_mode="rgb_array")
+    env.reset(seed=0)
+    for _ in range(30):
+        info = env.step(np.zeros(1, np.float32))[-1]
+    polylines.clear(), lines.clear()
+    env.render()
+    s, p = env.unwrapped.state, env.unwrapped.params
+    x, base, height = float(s["distance"][0]), float(s["base"][0]), float(s["height"][0])
+    panel, ground, *_ = polylines[0]  # the road, drawn first
+    nearest = ground[np.argmin(np.abs(ground[:, 0] - x))]
+    assert panel.to_px(*nearest)[1] - panel.to_px(x, base)[1] == pytest.approx(WHEEL_PIXELS, abs=2)
+    stops = sorted(a[1] for _, a, _, color, *width in lines if color == canvas.RED and width == [3])
+    bottom = height - info["travel"]  # where the body's bottom rests
+    np.testing.assert_allclose(stops, [bottom - p.travel_limit, bottom + p.travel_limit])
+
+
+def test_thread_colours_stretched_springs_and_draws_forces_along_them(monkeypatch: pytest.MonkeyPatch) -> None:
+    lines, arrows = (record_calls(monkeypatch, canvas.Panel, name) for name in ("line", "arrow"))
+    env = gym.make("vegym/Thread-v0", render_mode="rgb_array")
+    env.reset(seed=0)
+    info = env.step(np.full(env.action_space.shape, 0.5, np.float32))[-1]
+    lines.clear(), arrows.clear()
+    env.render()
+    p = env.unwrapped.params
+    springs = [(a, b, color) for _, a, b, color, *width in lines if width == [3]]
+    assert len(springs) == p.n_nodes + 1
+    for a, b, color in springs:
+        stretched = np.linalg.norm(np.subtract(b, a)) > p.natural_length
+        assert color == (canvas.BLACK if stretched else canvas.ORANGE)
+    assert len(arrows) == len(info["forces"])
+    for (_, _, vector, *_), force in zip(arrows, info["forces"], strict=True):
+        assert np.dot(vector, force) > 0.0
+
+
+def test_aircraft_heading_chart_breaks_its_line_where_the_heading_wraps() -> None:
+    from vegym.render.aircraft import AircraftRenderer
+
+    t = np.arange(4.0)
+    segments = AircraftRenderer._unwrapped_segments(t, np.array([170.0, 179.0, -179.0, -170.0]), True)
+    assert [len(segment) for segment in segments] == [2, 2]
