@@ -181,3 +181,8 @@ def check_values(
     bad = outside(array, meta)
     if np.any(bad):
         raise ValueError(f"{name}={float(array[bad].flat[0])!r} is outside the allowed range {interval_text(meta)}")
+
+
+def check_positive(name: str, values: Any) -> None:
+    """:func:`check_values` for a quantity that must be positive and finite, in ``(0, inf)``."""
+    check_values(name, values, 0.0, math.inf, low_open=True, high_open=True)

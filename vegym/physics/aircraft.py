@@ -34,7 +34,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from vegym.params import Params, check_values, invalid, param
+from vegym.params import Params, check_positive, invalid, param
 from vegym.physics import vmath
 from vegym.physics.columns import flat_columns
 
@@ -270,7 +270,7 @@ def step(
     plus gusts, drawn by the caller). The climb rate returned is ``(y' - y) / dt``, drafts and the altitude
     limits included.
     """
-    check_values("dt", dt, 0.0, math.inf, low_open=True, high_open=True)
+    check_positive("dt", dt)
     new_command = saturate(command, state.speed, dt, params)
     applied = state.command if params.book_faithful else new_command
     _, (vertical_wind, _) = flat_columns(vertical_wind, state.speed)  # (n,), however it was given

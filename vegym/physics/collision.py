@@ -22,7 +22,7 @@ import math
 import numpy as np
 from numba import njit
 
-from vegym.params import check_values
+from vegym.params import check_positive, check_values
 from vegym.physics.columns import flat_columns
 
 
@@ -152,13 +152,9 @@ def _reduced_mass_each(m_a: np.ndarray, m_b: np.ndarray) -> np.ndarray:
 
 def _check_impact(mass_a: np.ndarray | float, mass_b: np.ndarray | float, restitution: np.ndarray | float) -> None:
     """``ValueError`` for a mass that is not positive or a restitution outside [0, 1] (e > 1 creates energy)."""
-    check_values("mass_a", mass_a, 0.0, math.inf, low_open=True, high_open=True)
-    check_values("mass_b", mass_b, 0.0, math.inf, low_open=True, high_open=True)
+    check_positive("mass_a", mass_a)
+    check_positive("mass_b", mass_b)
     check_values("restitution", restitution, 0.0, 1.0)
-
-
-def _check_deceleration(deceleration: np.ndarray | float) -> None:
-    check_values("deceleration", deceleration, 0.0, math.inf, low_open=True, high_open=True)
 
 
 def reduced_mass(mass_a: np.ndarray, mass_b: np.ndarray) -> np.ndarray:
@@ -252,7 +248,7 @@ def slide(position: np.ndarray, velocity: np.ndarray, deceleration: float) -> tu
 
     Constant deceleration ``a`` (m/s^2) along the motion: distance ``|v|^2 / (2 a)``, time ``|v| / a``.
     """
-    _check_deceleration(deceleration)
+    check_positive("deceleration", deceleration)
     shape, (position, velocity), _ = _rows([position, velocity], [])
     rest, distance, time = _slide_each(position, velocity, float(deceleration))
     return rest.reshape(shape), distance.reshape(shape[:-1]), time.reshape(shape[:-1])
@@ -260,13 +256,13 @@ def slide(position: np.ndarray, velocity: np.ndarray, deceleration: float) -> tu
 
 def speed_after(speed: np.ndarray, distance: np.ndarray, deceleration: float) -> np.ndarray:
     """Speed (m/s) of a ball launched at ``speed`` after sliding ``distance`` (m): ``sqrt(v^2 - 2 a s)``, >= 0."""
-    _check_deceleration(deceleration)
+    check_positive("deceleration", deceleration)
     shape, columns = flat_columns(speed, distance, deceleration)
     return _speed_after_each(*columns).reshape(shape)[()]
 
 
 def launch_speed(speed: np.ndarray, distance: np.ndarray, deceleration: float) -> np.ndarray:
     """Speed (m/s) to launch a ball at so that it still has ``speed`` after ``distance`` m: ``sqrt(v^2 + 2 a s)``."""
-    _check_deceleration(deceleration)
+    check_positive("deceleration", deceleration)
     speed = np.asarray(speed, dtype=np.float64)
     return np.sqrt(speed * speed + 2.0 * deceleration * np.asarray(distance, dtype=np.float64))

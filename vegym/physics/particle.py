@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from vegym.params import Params, check_values, param
+from vegym.params import Params, check_positive, check_values, param
 from vegym.physics.columns import flat_columns
 
 STANDARD_GRAVITY = 9.81
@@ -100,11 +100,6 @@ def _impulse_each(v_n: np.ndarray, restitution: np.ndarray) -> np.ndarray:
     return out
 
 
-def _check_gravity(gravity: float) -> None:
-    """``ValueError`` unless ``gravity`` is a positive magnitude (m/s^2): the gravity vector is ``(0, -g, 0)``."""
-    check_values("gravity", gravity, 0.0, math.inf, low_open=True, high_open=True)
-
-
 def time_to_ground(h: np.ndarray, v: np.ndarray, radius: float, gravity: float) -> np.ndarray:
     """Exact time until the centre reaches ``h = radius`` (the corrected 8.8/8.11).
 
@@ -114,7 +109,7 @@ def time_to_ground(h: np.ndarray, v: np.ndarray, radius: float, gravity: float) 
     ``v^2 + 2 g (h - r) < 0``, otherwise 0 moving down and, moving up, the time it falls back through ``h = r``
     (the later root).
     """
-    _check_gravity(gravity)
+    check_positive("gravity", gravity)  # a magnitude: the vector is (0, -g, 0)
     shape, (h, v) = flat_columns(h, v)
     return _ground_each(h, v, float(radius), float(gravity))[0].reshape(shape)[()]
 
@@ -124,14 +119,14 @@ def impact_velocity(h: np.ndarray, v: np.ndarray, radius: float, gravity: float)
 
     Exact by energy conservation; equal to ``v - g * time_to_ground(...)``.
     """
-    _check_gravity(gravity)
+    check_positive("gravity", gravity)
     shape, (h, v) = flat_columns(h, v)
     return _ground_each(h, v, float(radius), float(gravity))[1].reshape(shape)[()]
 
 
 def apex_height(h: np.ndarray, v: np.ndarray, gravity: float) -> np.ndarray:
     """Highest height of the centre in free flight from (h, v); ``h`` itself when moving down."""
-    _check_gravity(gravity)
+    check_positive("gravity", gravity)
     shape, (h, v) = flat_columns(h, v)
     return _apex_each(h, v, float(gravity)).reshape(shape)[()]
 

@@ -22,7 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from vegym.params import Params, check_values, param
+from vegym.params import Params, check_positive, check_values, param
 from vegym.physics import vmath
 from vegym.physics.columns import flat_columns
 from vegym.physics.particle import STANDARD_GRAVITY
@@ -149,7 +149,7 @@ def step(
 ) -> tuple[np.ndarray, np.ndarray]:
     """One semi-implicit Euler step of ``dt`` seconds with the torque held: the new (theta, omega). theta is not
     wrapped; ``dt`` must be positive."""
-    check_values("dt", dt, 0.0, math.inf, low_open=True, high_open=True)
+    check_positive("dt", dt)
     p = params
     shape, (theta, omega, torque) = flat_columns(theta, omega, torque)
     new_theta, new_omega = _swing_each(theta, omega, torque, float(dt), p.gravity / p.length, p.damping, p.inertia)

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from vegym.params import Params, check_values, param
+from vegym.params import Params, check_positive, param
 from vegym.physics import vmath
 from vegym.physics.columns import flat_columns, scratch
 from vegym.physics.particle import STANDARD_GRAVITY
@@ -142,7 +142,7 @@ def step(
     Returns the new height (m), the new velocity (m/s) and the acceleration applied over the step (m/s^2);
     ``dt`` must be positive.
     """
-    check_values("dt", dt, 0.0, math.inf, low_open=True, high_open=True)
+    check_positive("dt", dt)
     shape, columns = flat_columns(height, velocity, base, base_velocity, damping, force)
     return tuple(c.reshape(shape)[()] for c in _step_each(*columns, float(dt), _spring(params)))
 
