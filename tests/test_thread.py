@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import re
+import subprocess
+import sys
+import warnings
 from collections.abc import Callable
 
 import gymnasium as gym
@@ -327,3 +330,49 @@ def test_the_energy_entry_follows_energy_pumped_far_above_the_pluck() -> None:
     assert np.median(fractions) > 2.0  # far above the pluck's energy
     np.testing.assert_allclose(entries, fractions / (1.0 + fractions), rtol=1e-6)
     assert entries.max() < 1.0 and len(np.unique(entries)) > 0.9 * len(entries)
+
+
+@pytest.mark.parametrize("stiffness", [5e-324, 1e-320, 1e-300])
+def test_a_thread_too_soft_for_the_rest_shape_solver_is_refused_naming_a_parameter(stiffness: float) -> None:
+    """stiffness=5e-324 or 1e-320 (allowed: (0, inf)) hung in the rest-shape solver, whose shift 1e-6 S underflowed
+    to 0 and never grew; 1e-300 raised numpy's LinAlgError 'Eigenvalues did not converge', naming no parameter, after
+    overflow warnings (a helper's fuzzing). In a subprocess, so that a hang fails the test instead of the run."""
+    code = (
+        "import warnings; warnings.simplefilter('error'); from vegym.envs.thread import ThreadEnvParams\n"
+        f"try:\n    ThreadEnvParams(stiffness={stiffness!r})\nexcept ValueError as error:\n    print(error)\n"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    assert re.search(
+        rf"natural_length=0.1 is outside the allowed range .*stiffness={re.escape(repr(stiffness))}", done.stdout
+    )
+
+
+@pytest.mark.parametrize("pluck_margin", [0.0, 1e-300])
+def test_plucks_reaching_the_ends_of_the_span_warn_of_nothing(pluck_margin: float) -> None:
+    """pluck_margin=0 (the closed end of its range [0, 0.5)) puts the validation's extreme plucks at the ends of the
+    span, where plucked() divided by their zero distance from the end in the side np.where discards: a numpy
+    RuntimeWarning 'divide by zero' at every make (a helper's fuzzing)."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        env = gym.make(ENV_ID, pluck_margin=pluck_margin)
+        obs, _ = env.reset(seed=0)
+        for _ in range(20):
+            obs, reward, *_ = env.step(env.action_space.sample())
+        assert np.all(np.isfinite(obs)) and np.isfinite(reward)
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "name"),
+    [
+        ({"node_mass": 5e-324}, r"stiffness=400.0 is outside the allowed range .* for node_mass=5e-324"),
+        ({"node_mass": 5e-324, "stiffness": 1e-11}, r"drag=0.002 is outside the allowed range .* for node_mass=5e-324"),
+        ({"span": 1e300}, "natural_length=.* is outside the allowed range"),
+    ],
+)
+def test_extreme_threads_are_refused_with_a_value_error_naming_a_parameter(kwargs: dict, name: str) -> None:
+    """node_mass=5e-324 raised ZeroDivisionError (its stable step sqrt(m / S) underflowed to 0), or with
+    stiffness=1e-11 OverflowError (the ceil of an infinite substep count), and span=1e300
+    OverflowError (span**2 in the rest-shape solver's start), both allowed by their ranges (a helper's fuzzing)."""
+    with pytest.raises(ValueError, match=name):
+        ThreadEnvParams(**kwargs)

@@ -305,7 +305,9 @@ def step(
 
 def substeps(dt: float, params: ThreadParams, margin: float = 0.5) -> int:
     """Number of equal substeps that splits ``dt`` into steps of at most ``margin`` times the stable step."""
-    return max(1, math.ceil(dt / (margin * params.stable_step)))
+    stable = margin * params.stable_step  # 0 where sqrt(m / S) or m / c underflows (node_mass=5e-324, say)
+    count = dt / stable if stable > 0.0 else math.inf
+    return max(1, math.ceil(count)) if count < 2.0**63 else 2**63 - 1  # the ceil of inf raised OverflowError
 
 
 def energy(positions: np.ndarray, velocities: np.ndarray, params: ThreadParams) -> np.ndarray:
@@ -319,7 +321,13 @@ def energy(positions: np.ndarray, velocities: np.ndarray, params: ThreadParams) 
     return out
 
 
+_LEAST_SHIFT = float(np.finfo(np.float64).tiny)
+"""The least shift of :func:`static_equilibrium`'s Newton matrix: ``1e-6 S`` alone underflowed to 0 for the
+stiffnesses below 5e-318, and the search for a positive definite matrix never ended."""
+
+
 @functools.lru_cache(maxsize=32)
+@np.errstate(over="ignore", invalid="ignore", divide="ignore")  # a far too slack thread overflows: refused, no warning
 def static_equilibrium(params: ThreadParams, tolerance: float = 1e-12) -> np.ndarray:
     """The thread at rest (N, 2) under gravity (m): the minimum of the potential energy, by damped Newton steps.
 
@@ -336,7 +344,7 @@ def static_equilibrium(params: ThreadParams, tolerance: float = 1e-12) -> np.nda
     x = p.span * np.arange(1, n + 1) / (n + 1)
     slack = max((n + 1) * p.natural_length - p.span, 0.0)
     depth = max(math.sqrt(3.0 * p.span * slack / 8.0), 0.01 * p.span)
-    positions = np.stack([x, -4.0 * depth * x * (p.span - x) / p.span**2], axis=-1)[None]
+    positions = np.stack([x, -4.0 * depth * x * (p.span - x) / (p.span * p.span)], axis=-1)[None]  # not **: no error
     scale = p.node_mass * p.gravity + p.stiffness * max(p.natural_length, p.spacing)
     zero = np.zeros_like(positions)
 
@@ -345,6 +353,8 @@ def static_equilibrium(params: ThreadParams, tolerance: float = 1e-12) -> np.nda
 
     residual = force(positions)
     for _ in range(200):
+        if not np.all(np.isfinite(residual)):  # a thread so slack that its sag overflows (stiffness=1e-300, say)
+            raise RuntimeError(f"no static equilibrium found for {p}: the forces overflow")
         stiffness = -_force_jacobian(positions[0], p)
         if np.max(np.abs(residual)) <= tolerance * scale:
             if np.linalg.eigvalsh(stiffness)[0] <= 0.0:
@@ -354,7 +364,7 @@ def static_equilibrium(params: ThreadParams, tolerance: float = 1e-12) -> np.nda
             return result
         shift = 0.0
         while np.linalg.eigvalsh(stiffness + shift * np.eye(2 * n))[0] <= 0.0:
-            shift = max(2.0 * shift, 1e-6 * p.stiffness)
+            shift = max(2.0 * shift, 1e-6 * p.stiffness, _LEAST_SHIFT)  # 1e-6 S is 0 for S below 5e-318
         delta = np.linalg.solve(stiffness + shift * np.eye(2 * n), residual).reshape(positions.shape)
         potential = energy(positions, zero, p)[0]
         t = 1.0
