@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 from collections.abc import Callable
 
 import gymnasium as gym
@@ -280,3 +281,13 @@ def test_is_success_is_the_amplitude_error_within_the_tolerance() -> None:
         np.testing.assert_array_equal(info["is_success"], error <= tolerance)
         near += np.count_nonzero((error > tolerance) & (error <= 2.0 * tolerance))
     assert near >= 16
+
+
+@pytest.mark.parametrize("length", [5e-324, 1e-300, 1e300])
+def test_a_length_whose_inertia_is_no_positive_finite_float_is_refused_naming_it(length: float) -> None:
+    """m L^2 underflowed to 0 at length=1e-300 (allowed: (0, inf)): the stable-step check divided by it and raised
+    ZeroDivisionError; at length=1e300 it overflowed to inf and the first observation held NaN (a helper's fuzzing)."""
+    with pytest.raises(ValueError, match=rf"length={re.escape(repr(length))} is outside the allowed range .*m L\^2"):
+        gym.make(ENV_ID, length=length)
+    with pytest.raises(ValueError, match=rf"length={re.escape(repr(length))}"):
+        gym.make_vec(ENV_ID, num_envs=2, vectorization_mode="vector_entry_point", length=length)

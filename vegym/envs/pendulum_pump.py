@@ -49,6 +49,10 @@ class PendulumPumpParams(ScheduledParams, Params):
         if self.target_min > self.target_max:
             raise invalid("target_min", self.target_min, f"[0, target_max={self.target_max}]")
         _ = self.schedule  # raises ValueError if change_interval_min or final_hold is out of range
+        inertia = self.physics.inertia
+        if not 0.0 < inertia < math.inf:  # the dynamics divide by m L^2: 0 raised ZeroDivisionError, inf gave NaN
+            allowed = f"lengths whose m L^2 is a positive finite float (mass={self.mass!r}: m L^2 = {inertia:g})"
+            raise invalid("length", self.length, allowed)
         stable = self.physics.max_stable_step()
         if self.step_length >= stable:  # semi-implicit Euler is unstable at steps of ``stable`` and longer
             pendulum = self.named("length", "mass", "gravity", "damping")
