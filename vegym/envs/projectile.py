@@ -269,8 +269,10 @@ def _observe(
         sin_b, cos_b = vmath.sincos(bearing[i])
         out[4 * i] = math.sqrt(dx * dx + dz * dz) / target_distance_max
         out[4 * i + 1] = p[3 * i + 1] / height_scale
-        out[4 * i + 2] = (w[3 * i] * cos_b + w[3 * i + 2] * sin_b) / wind_scale  # the wind is horizontal
-        out[4 * i + 3] = (w[3 * i] * -sin_b + w[3 * i + 2] * cos_b) / wind_scale
+        # the wind is horizontal; held to the box against rounding: a subnormal wind_speed_max (5e-324, allowed)
+        # rounds the wind's components to its multiples, and their turn into the target frame observed 2.0
+        out[4 * i + 2] = min(max((w[3 * i] * cos_b + w[3 * i + 2] * sin_b) / wind_scale, -1.0), 1.0)
+        out[4 * i + 3] = min(max((w[3 * i] * -sin_b + w[3 * i + 2] * cos_b) / wind_scale, -1.0), 1.0)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
