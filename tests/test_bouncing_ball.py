@@ -362,3 +362,11 @@ def test_a_ball_resting_past_its_planned_bounces_is_judged_over_every_bounce_it_
     rest = last_info(0.05)
     mean_error = abs(rest["apex_height"] - rest["target_height"]) / 2.9 / 4  # the myopic bounces hit their targets
     assert not last_info(0.9 * mean_error)["is_success"] and last_info(1.5 * mean_error)["is_success"]
+
+
+@pytest.mark.parametrize(("gravity", "drop_height"), [(1e9, 1e300), (9.81, 1e308)])
+def test_a_drop_whose_speed_overflows_is_refused_naming_the_drop_height(gravity: float, drop_height: float) -> None:
+    """2 g (drop_height - radius) overflowed to inf (both allowed: (0, inf) and [0, inf)): the observed speed, over
+    the drop speed, was inf / inf = NaN from the first reset (a helper's fuzzing)."""
+    with pytest.raises(ValueError, match=r"drop_height=1e\+30[08] is outside the allowed range .*drop speed"):
+        gym.make(ENV_ID, gravity=gravity, drop_height=drop_height)
