@@ -222,3 +222,12 @@ def test_the_range_checks_admit_their_closed_ends_and_the_target_interval_rounds
     assert fixed.step(np.zeros(1, np.float32))[4]["gears"] == 3
     GearTrainParams(target_interval=0.05, dt=0.05)
     assert GearTrainParams(target_interval=0.3, dt=0.1, max_speed=5.0).interval_steps == 3  # 2.9999999999999996
+
+
+@pytest.mark.parametrize("kwargs", [{"dt": 5e-324}, {"dt": 1e-300}, {"dt": 1e-9, "target_interval": 1e11}])
+def test_a_target_interval_of_more_steps_than_an_int64_holds_is_refused_naming_it(kwargs: dict) -> None:
+    """round(target_interval / dt) steps between target changes: dt=5e-324 (allowed: (0, 1]) raised OverflowError
+    (the round of inf) at make, and dt=1e-300, or dt=1e-9 with target_interval=1e11, numba's TypingError at the
+    first reset (an integer beyond uint64 for the kernels; a helper's fuzzing)."""
+    with pytest.raises(ValueError, match=r"target_interval=.* is outside the allowed range .*2\^63"):
+        gym.make(ENV_ID, **kwargs)

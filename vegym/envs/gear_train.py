@@ -43,6 +43,9 @@ class GearTrainParams(Params):
             raise invalid("radius_min", self.radius_min, f"(0, radius_max={self.radius_max}]")
         if self.target_interval < self.dt:
             raise invalid("target_interval", self.target_interval, f"[dt={self.dt}, inf)")
+        if not self.target_interval / self.dt < 2.0**63:  # interval_steps reaches the kernels as an int64
+            allowed = f"[dt={self.dt}, 2^63 dt = {2.0**63 * self.dt:g}): at most 2^63 - 1 steps between changes"
+            raise invalid("target_interval", self.target_interval, allowed)
         if not self.ratio_max * self.max_speed * self.dt < np.pi:
             raise invalid(
                 "max_speed",
