@@ -147,3 +147,47 @@ def test_free_flight_spring_energy_and_skyhook_take_lists() -> None:
     np.testing.assert_array_equal(
         suspension.continuous_skyhook_damping([1.0, -1.0], [2.0, 0.5], 1000.0, 100.0, 3000.0), [500.0, 100.0]
     )
+
+
+@pytest.mark.parametrize("m", [0.0, -1.0, math.nan])
+def test_the_impact_laws_refuse_a_mass_that_is_not_positive(m: float) -> None:
+    for call in (
+        lambda: collision.direct_impact(2.0, -4.0, m, 3.0, 0.5),
+        lambda: collision.oblique_impact([0.0, 0.0], [1.0, 0.0], [2.0, 0.0], [0.0, 0.0], 5.0, m, 0.5),
+        lambda: collision.energy_loss(1.0, 5.0, m, 0.5),
+        lambda: collision.deflection_angle(0.3, m, 3.0, 0.5),
+        lambda: collision.reduced_mass(m, 3.0),
+    ):
+        with pytest.raises(ValueError, match=r"mass_[ab]=.*\(0, inf\)"):
+            call()
+
+
+def test_energy_loss_and_deflection_refuse_a_restitution_above_1() -> None:
+    """energy_loss(..., e=1.5) returned a negative loss, silently."""
+    with pytest.raises(ValueError, match=r"restitution=1.5 is outside the allowed range \[0, 1\]"):
+        collision.energy_loss(1.0, 5.0, 3.0, 1.5)
+    with pytest.raises(ValueError, match=r"restitution=1.5 is outside the allowed range \[0, 1\]"):
+        collision.deflection_angle(0.3, 5.0, 3.0, 1.5)
+
+
+def test_terrain_and_the_aircraft_functions_refuse_rows_of_another_width() -> None:
+    """A (n, 1) wavenumber beside a (n, 3) amplitude would broadcast silently."""
+    with pytest.raises(ValueError, match="wavenumber"):
+        suspension.terrain(np.zeros(3), np.ones((3, 3)), np.ones((3, 1)), np.zeros((3, 3)))
+    with pytest.raises(ValueError, match=r"\(n, 3\) or \(3,\)"):
+        aircraft.autopilot(np.zeros((2, 4)), aircraft.AircraftParams(), aircraft.AutopilotGains())
+
+
+def test_one_command_steps_every_aircraft_and_other_row_counts_raise() -> None:
+    """(3,) and (1, 3) commands broadcast to every aircraft: the compiled flight read one command row per aircraft
+    and, given one row for three, flew the second and third on memory past it."""
+    params = aircraft.AircraftParams()
+    state = aircraft.initial_state([[0.0, 1000.0, 0.0]] * 3, [100.0, 120.0, 130.0], [0.0, 0.0, 0.0])
+    each, _ = aircraft.step(state, [[1.5, 5.0, 0.01]] * 3, 1.0, params)
+    for command in ([1.5, 5.0, 0.01], [[1.5, 5.0, 0.01]]):
+        new, climb = aircraft.step(state, command, 1.0, params)
+        np.testing.assert_array_equal(new.speed, each.speed)
+        np.testing.assert_array_equal(new.position, each.position)
+        np.testing.assert_array_equal(climb, [5.0, 5.0, 5.0])
+    with pytest.raises(ValueError, match="command has 2 rows for 3 aircraft"):
+        aircraft.step(state, [[1.5, 5.0, 0.01]] * 2, 1.0, params)

@@ -264,14 +264,18 @@ def step(
     params: AircraftParams,
     vertical_wind: np.ndarray | float = 0.0,
 ) -> tuple[AircraftState, np.ndarray]:
-    """One step of ``dt`` seconds under ``command`` (n, 3); returns the new state and the climb rate applied.
+    """One step of ``dt`` seconds under ``command`` (n, 3), or (3,) or (1, 3) for every aircraft; returns the new
+    state and the climb rate applied.
 
     ``vertical_wind`` (n,) or scalar is the air's vertical velocity during the step (m/s, + up: steady draft
     plus gusts, drawn by the caller). The climb rate returned is ``(y' - y) / dt``, drafts and the altitude
     limits included.
     """
     check_positive("dt", dt)
-    new_command = saturate(command, state.speed, dt, params)
+    n, command = len(state.speed), _commands(command)
+    if len(command) not in (1, n):
+        raise ValueError(f"command has {len(command)} rows for {n} aircraft: give (n, 3), or (3,) or (1, 3) for all")
+    new_command = saturate(np.broadcast_to(command, (n, 3)), state.speed, dt, params)
     applied = state.command if params.book_faithful else new_command
     _, (vertical_wind, _) = flat_columns(vertical_wind, state.speed)  # (n,), however it was given
     position, speed, heading, climb = _fly_each(

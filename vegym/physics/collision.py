@@ -159,6 +159,8 @@ def _check_impact(mass_a: np.ndarray | float, mass_b: np.ndarray | float, restit
 
 def reduced_mass(mass_a: np.ndarray, mass_b: np.ndarray) -> np.ndarray:
     """``mu = m_a m_b / (m_a + m_b)`` (kg), by :func:`reduced_mass_one` (any broadcastable shapes)."""
+    check_positive("mass_a", mass_a)
+    check_positive("mass_b", mass_b)
     shape, (m_a, m_b) = flat_columns(mass_a, mass_b)
     return _reduced_mass_each(m_a, m_b).reshape(shape)[()]
 
@@ -208,6 +210,7 @@ def energy_loss(
     closing_speed: np.ndarray, mass_a: np.ndarray, mass_b: np.ndarray, restitution: np.ndarray
 ) -> np.ndarray:
     """Kinetic energy (J) lost in an impact at closing speed ``w`` (m/s): ``1/2 mu (1 - e^2) w^2``."""
+    _check_impact(mass_a, mass_b, restitution)
     shape, columns = flat_columns(closing_speed, mass_a, mass_b, restitution)
     return _energy_loss_each(*columns).reshape(shape)[()]
 
@@ -221,6 +224,7 @@ def deflection_angle(alpha: np.ndarray, mass_a: np.ndarray, mass_b: np.ndarray, 
     """
     alpha = np.asarray(alpha, dtype=np.float64)
     m_a, m_b, e = (np.asarray(x, dtype=np.float64) for x in (mass_a, mass_b, restitution))
+    _check_impact(m_a, m_b, e)
     return np.arctan2((m_a + m_b) * np.sin(alpha), (m_a - e * m_b) * np.cos(alpha))
 
 
