@@ -68,9 +68,14 @@ class ThreadEnvParams(Params):
             raise invalid("drag", self.drag, f"[0, {m * rate:.6g}] for {why}")
         try:
             rest = thread.static_equilibrium(self.physics)
-        except RuntimeError as error:  # a thread far too slack (natural_length=300 m, say)
-            allowed = f"where the rest-shape solver converges: {error}"
-            raise invalid("natural_length", self.natural_length, allowed) from None
+        except RuntimeError as error:  # too slack (natural_length=300), soft (stiffness=1e-300) or long (span=1e300)
+            sizes = {  # the size (m) each gives the thread: the largest is named
+                "natural_length": (self.n_nodes + 1) * self.natural_length,
+                "span": self.span,
+                "stiffness": self.node_mass * self.gravity * (self.n_nodes + 1) / self.stiffness,
+            }
+            name = max(sizes, key=sizes.__getitem__)
+            raise invalid(name, getattr(self, name), f"where the rest-shape solver converges: {error}") from None
         (weakest, strongest), scale = self._weakest_plucks(rest, (self.pluck_min, self.pluck_max))
         least = 1e-14 * scale / self.settle_fraction  # 50 times the rounding of the energy, per settle_fraction
         if not weakest > least:  # rounding would decide when the episode settles, or the pluck adds no energy

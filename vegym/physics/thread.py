@@ -323,7 +323,7 @@ def energy(positions: np.ndarray, velocities: np.ndarray, params: ThreadParams) 
 
 _LEAST_SHIFT = float(np.finfo(np.float64).tiny)
 """The least shift of :func:`static_equilibrium`'s Newton matrix: ``1e-6 S`` alone underflowed to 0 for the
-stiffnesses below 5e-318, and the search for a positive definite matrix never ended."""
+stiffnesses below about 2.5e-318, and the search for a positive definite matrix never ended."""
 
 
 @functools.lru_cache(maxsize=32)
@@ -364,7 +364,7 @@ def static_equilibrium(params: ThreadParams, tolerance: float = 1e-12) -> np.nda
             return result
         shift = 0.0
         while np.linalg.eigvalsh(stiffness + shift * np.eye(2 * n))[0] <= 0.0:
-            shift = max(2.0 * shift, 1e-6 * p.stiffness, _LEAST_SHIFT)  # 1e-6 S is 0 for S below 5e-318
+            shift = max(2.0 * shift, 1e-6 * p.stiffness, _LEAST_SHIFT)  # 1e-6 S is 0 for S below about 2.5e-318
         delta = np.linalg.solve(stiffness + shift * np.eye(2 * n), residual).reshape(positions.shape)
         potential = energy(positions, zero, p)[0]
         t = 1.0
