@@ -53,7 +53,7 @@ def outside(values: Any, meta: typing.Mapping[str, Any]) -> Any:
     low, high = meta["low"], meta["high"]
     too_low = values <= low if meta["low_open"] else values < low
     too_high = values >= high if meta["high_open"] else values > high
-    return np.isnan(values) | too_low | too_high
+    return (values != values) | too_low | too_high  # NaN: not np.isnan, 3 us on a Python float
 
 
 ParamsT = typing.TypeVar("ParamsT", bound="Params")

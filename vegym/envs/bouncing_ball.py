@@ -52,7 +52,7 @@ class BouncingBallParams(Params):
             )
         if self.target_ratio_min > self.target_ratio_max:
             raise invalid("target_ratio_min", self.target_ratio_min, f"(0, target_ratio_max={self.target_ratio_max}]")
-        if not 2.0 * self.gravity * self.height_scale < math.inf:  # the observed speeds are over the drop speed
+        if not math.isfinite(self.drop_speed):  # the observed speeds are over the drop speed
             speed = "drop speed sqrt(2 g (drop_height - radius))"
             allowed = f"heights whose {speed} is finite ({self.named('gravity', 'radius')})"
             raise invalid("drop_height", self.drop_height, allowed)

@@ -194,7 +194,8 @@ def terrain_into(
 def terrain(
     distance: np.ndarray, amplitude: np.ndarray, wavenumber: np.ndarray, phase: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Height (m) and slope of an undulating terrain ``sum_j A_j sin(kappa_j x + phi_j)`` at ``distance`` x (n,).
+    """Height (m) and slope of an undulating terrain ``sum_j A_j sin(kappa_j x + phi_j)`` at ``distance`` x (n,)
+    (or a scalar: n = 1).
 
     ``amplitude`` (m), ``wavenumber`` (rad/m) and ``phase`` (rad) are (n, J) arrays, one row per terrain, or
     (1, J) (or (J,)): one terrain at every distance (:func:`terrain_into`). Other shapes raise ``ValueError``.
