@@ -23,7 +23,7 @@ import numpy as np
 from numba import njit
 
 from vegym.params import check_positive, check_values
-from vegym.physics.columns import flat_columns
+from vegym.physics.columns import flat_columns, floats
 
 
 def _rows(vectors: list[np.ndarray], scalars: list[np.ndarray | float]) -> tuple[tuple[int, ...], list, list]:
@@ -173,8 +173,7 @@ def direct_impact(
     ``u_a = ((m_a - e m_b) v_a + (1 + e) m_b v_b) / (m_a + m_b)``, ``u_b = ((m_b - e m_a) v_b + (1 + e) m_a v_a) /
     (m_a + m_b)``. Example (8.50): m_a = 5, v_a = 2, m_b = 3, v_b = -4, e = 1 gives u_a = -2.5, u_b = 3.5.
     """
-    v_a, v_b = np.asarray(v_a, dtype=np.float64), np.asarray(v_b, dtype=np.float64)
-    m_a, m_b, e = (np.asarray(x, dtype=np.float64) for x in (mass_a, mass_b, restitution))
+    v_a, v_b, m_a, m_b, e = floats(v_a, v_b, mass_a, mass_b, restitution)
     _check_impact(m_a, m_b, e)
     total = m_a + m_b
     return ((m_a - e * m_b) * v_a + (1.0 + e) * m_b * v_b) / total, (
@@ -222,8 +221,7 @@ def deflection_angle(alpha: np.ndarray, mass_a: np.ndarray, mass_b: np.ndarray, 
     ``atan2((m_a + m_b) sin(alpha), (m_a - e m_b) cos(alpha))``, on the same side as ``alpha``. Equal masses:
     ``tan(theta) = 2 tan(alpha) / (1 - e)`` (8.62), 90 degrees at e = 1. B leaves along the line of centres.
     """
-    alpha = np.asarray(alpha, dtype=np.float64)
-    m_a, m_b, e = (np.asarray(x, dtype=np.float64) for x in (mass_a, mass_b, restitution))
+    alpha, m_a, m_b, e = floats(alpha, mass_a, mass_b, restitution)
     _check_impact(m_a, m_b, e)
     return np.arctan2((m_a + m_b) * np.sin(alpha), (m_a - e * m_b) * np.cos(alpha))
 

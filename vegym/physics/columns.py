@@ -11,10 +11,15 @@ SMALL_SCRATCH = 64
 """Scratch arrays of at most this many elements live on the kernel's stack (no allocation)."""
 
 
+def floats(*values: np.ndarray | float | list) -> list[np.ndarray]:
+    """``values`` (numbers, lists or arrays) as float64 arrays, copied only where the dtype changes."""
+    return [np.asarray(value, dtype=np.float64) for value in values]
+
+
 def flat_columns(*arrays: np.ndarray | float) -> tuple[tuple[int, ...], list[np.ndarray]]:
     """The broadcast shape of ``arrays`` and each of them broadcast to it as a contiguous, writeable 1-d float64
     array (a copy only where broadcasting, a dtype change or the memory layout needs one)."""
-    columns = [np.asarray(a, dtype=np.float64) for a in arrays]
+    columns = floats(*arrays)
     shape = np.broadcast_shapes(*(c.shape for c in columns))
     return shape, [
         np.ascontiguousarray(c).reshape(-1) if c.shape == shape else np.array(np.broadcast_to(c, shape)).reshape(-1)

@@ -20,7 +20,7 @@ import numpy as np
 from numba import njit
 
 from vegym.params import Params, check_positive, check_values, param
-from vegym.physics.columns import flat_columns
+from vegym.physics.columns import flat_columns, floats
 
 STANDARD_GRAVITY = 9.81
 
@@ -35,7 +35,7 @@ class ParticleParams(Params):
 
 def state_at(h: np.ndarray, v: np.ndarray, t: np.ndarray, gravity: float) -> tuple[np.ndarray, np.ndarray]:
     """Height and vertical velocity after free flight of duration ``t`` (no ground): (8.5), (8.6)."""
-    h, v, t = (np.asarray(x, dtype=np.float64) for x in (h, v, t))
+    h, v, t = floats(h, v, t)
     return h + v * t - 0.5 * gravity * t * t, v - gravity * t
 
 

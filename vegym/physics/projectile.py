@@ -20,7 +20,7 @@ from numba import njit
 
 from vegym.params import Params, param
 from vegym.physics import vmath
-from vegym.physics.columns import flat_columns
+from vegym.physics.columns import flat_columns, floats
 from vegym.physics.particle import STANDARD_GRAVITY, ground_time_one, time_to_ground
 
 
@@ -70,14 +70,14 @@ def position_at(
     p0: np.ndarray, v0: np.ndarray, wind: np.ndarray, t: np.ndarray, params: ProjectileParams
 ) -> np.ndarray:
     """Position (n, 3) at time ``t`` (n,) after launch: ``p0 + (v0 + w) t + 1/2 g_vec t^2`` (8.69-8.71)."""
-    p0, v0, wind = (np.asarray(a, dtype=np.float64) for a in (p0, v0, wind))
+    p0, v0, wind = floats(p0, v0, wind)
     t = np.asarray(t, dtype=np.float64)[..., None]
     return p0 + (v0 + wind) * t + 0.5 * params.gravity_vector * t * t
 
 
 def velocity_at(v0: np.ndarray, wind: np.ndarray, t: np.ndarray, params: ProjectileParams) -> np.ndarray:
     """Ground-relative velocity (n, 3) at time ``t``: ``v0 + w + g_vec t``."""
-    v0, wind = np.asarray(v0, dtype=np.float64), np.asarray(wind, dtype=np.float64)
+    v0, wind = floats(v0, wind)
     return v0 + wind + params.gravity_vector * np.asarray(t, dtype=np.float64)[..., None]
 
 
@@ -120,7 +120,7 @@ def impact_point(
     p0: np.ndarray, v0: np.ndarray, wind: np.ndarray, params: ProjectileParams
 ) -> tuple[np.ndarray, np.ndarray]:
     """Landing point (n, 3), with ``y = radius``, and flight time (n,)."""
-    arrays = [np.asarray(a, dtype=np.float64) for a in (p0, v0, wind)]
+    arrays = floats(p0, v0, wind)
     shape = np.broadcast_shapes(*(a.shape for a in arrays))
     p0, v0, wind = (np.ascontiguousarray(np.broadcast_to(a, shape)).reshape(-1, 3) for a in arrays)
     out = _landing_each(p0, v0, wind, float(params.gravity), float(params.radius))

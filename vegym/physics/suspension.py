@@ -28,7 +28,7 @@ from numba import njit
 
 from vegym.params import Params, check_positive, param
 from vegym.physics import vmath
-from vegym.physics.columns import flat_columns, scratch
+from vegym.physics.columns import flat_columns, floats, scratch
 from vegym.physics.particle import STANDARD_GRAVITY
 
 
@@ -150,7 +150,7 @@ def step(
 def energy(height: np.ndarray, velocity: np.ndarray, base: np.ndarray, params: SpringParams) -> np.ndarray:
     """Mechanical energy (J) with the base held at ``base``: ``m v^2 / 2 + m g y + k (y - y_b - l)^2 / 2``."""
     p = params
-    height, velocity, base = (np.asarray(x, dtype=np.float64) for x in (height, velocity, base))
+    height, velocity, base = floats(height, velocity, base)
     extension = height - base - p.natural_length
     return 0.5 * p.mass * velocity * velocity + p.mass * p.gravity * height + 0.5 * p.stiffness * extension * extension
 
@@ -237,7 +237,7 @@ def continuous_skyhook_damping(
     wherever the damper's range reaches it; with ``c_sky = c_max`` it is stiff exactly where the on-off law is
     stiff and the relative velocity is at most the body's.
     """
-    body_velocity, relative_velocity = np.asarray(body_velocity, np.float64), np.asarray(relative_velocity, np.float64)
+    body_velocity, relative_velocity = floats(body_velocity, relative_velocity)
     opposing = body_velocity * relative_velocity > 0.0
     ratio = np.divide(c_sky * body_velocity, relative_velocity, out=np.zeros(np.shape(opposing)), where=opposing)
     return np.where(opposing, np.clip(ratio, c_min, c_max), c_min)
