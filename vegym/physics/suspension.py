@@ -200,11 +200,12 @@ def terrain(
     ``amplitude`` (m), ``wavenumber`` (rad/m) and ``phase`` (rad) are (n, J) arrays, one row per terrain, or
     (1, J) (or (J,)): one terrain at every distance (:func:`terrain_into`). Other shapes raise ``ValueError``.
     """
-    distance = np.ascontiguousarray(np.atleast_1d(np.asarray(distance, dtype=np.float64)))
+    distance, *coefficients = floats(distance, amplitude, wavenumber, phase)
+    distance = np.ascontiguousarray(np.atleast_1d(distance))
     if distance.ndim != 1:
         raise ValueError(f"distance has shape {distance.shape}; the allowed shapes are (n,) and ()")
     n = len(distance)
-    rows = [np.atleast_2d(np.asarray(a, dtype=np.float64)) for a in (amplitude, wavenumber, phase)]
+    rows = [np.atleast_2d(values) for values in coefficients]
     waves = rows[0].shape[-1]
     for name, values in zip(("amplitude", "wavenumber", "phase"), rows, strict=True):
         if values.ndim != 2 or values.shape[0] not in (1, n) or values.shape[1] != waves:
