@@ -176,8 +176,10 @@ def check_values(
     """Raise ``ValueError`` naming ``name``, its first offending value and the allowed interval if any of ``values``
     (a number or an array) is NaN or outside ``[low, high]`` (the ends excluded where open): the check of
     :class:`Params` for the parameters that the physics functions take as arguments."""
-    array = np.asarray(values, dtype=np.float64)
     meta = {"low": low, "high": high, "low_open": low_open, "high_open": high_open}
+    if isinstance(values, float | int) and not outside(values, meta):  # a scalar argument: no array (5-7 us)
+        return
+    array = np.asarray(values, dtype=np.float64)
     bad = outside(array, meta)
     if np.any(bad):
         raise ValueError(f"{name}={float(array[bad].flat[0])!r} is outside the allowed range {interval_text(meta)}")
