@@ -150,17 +150,21 @@ def _reduced_mass_each(m_a: np.ndarray, m_b: np.ndarray) -> np.ndarray:
     return out
 
 
-def _check_impact(mass_a: np.ndarray | float, mass_b: np.ndarray | float, restitution: np.ndarray | float) -> None:
-    """``ValueError`` for a mass that is not positive or a restitution outside [0, 1] (e > 1 creates energy)."""
+def _check_masses(mass_a: np.ndarray | float, mass_b: np.ndarray | float) -> None:
+    """``ValueError`` for a mass that is not positive."""
     check_positive("mass_a", mass_a)
     check_positive("mass_b", mass_b)
+
+
+def _check_impact(mass_a: np.ndarray | float, mass_b: np.ndarray | float, restitution: np.ndarray | float) -> None:
+    """``ValueError`` for a mass that is not positive or a restitution outside [0, 1] (e > 1 creates energy)."""
+    _check_masses(mass_a, mass_b)
     check_values("restitution", restitution, 0.0, 1.0)
 
 
 def reduced_mass(mass_a: np.ndarray, mass_b: np.ndarray) -> np.ndarray:
     """``mu = m_a m_b / (m_a + m_b)`` (kg), by :func:`reduced_mass_one` (any broadcastable shapes)."""
-    check_positive("mass_a", mass_a)
-    check_positive("mass_b", mass_b)
+    _check_masses(mass_a, mass_b)
     shape, (m_a, m_b) = flat_columns(mass_a, mass_b)
     return _reduced_mass_each(m_a, m_b).reshape(shape)[()]
 
