@@ -33,6 +33,7 @@ import numpy as np
 from stable_baselines3.common import callbacks as sb3_callbacks
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.callbacks import BaseCallback, CheckpointCallback, EvalCallback, ProgressBarCallback
+from stable_baselines3.common.logger import Logger
 from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from stable_baselines3.common.vec_env import DummyVecEnv, VecEnv, VecMonitor, VecNormalize
 
@@ -68,9 +69,21 @@ def make_env(config: TrainConfig, seed: int, n_envs: int | None = None) -> VecEn
 
 
 def build_model(config: TrainConfig, env: VecEnv, tensorboard_log: str | None = None) -> BaseAlgorithm:
-    """An untrained model of the config's algorithm on ``env``."""
+    """An untrained model of the config's algorithm on ``env``, logging to TensorBoard in ``tensorboard_log`` or
+    nowhere (:func:`log_nowhere_without_tensorboard`)."""
     kwargs = config.algo_kwargs(int(env.action_space.shape[0]))
-    return config.algo_class(config.policy, env, seed=config.seed, tensorboard_log=tensorboard_log, verbose=0, **kwargs)
+    algo = config.algo_class
+    model = algo(config.policy, env, seed=config.seed, tensorboard_log=tensorboard_log, verbose=0, **kwargs)
+    return log_nowhere_without_tensorboard(model, tensorboard_log)
+
+
+def log_nowhere_without_tensorboard(model: BaseAlgorithm, tensorboard_log: str | None) -> BaseAlgorithm:
+    """``model``, given a logger that writes nothing when there is no ``tensorboard_log``: SB3's default one then
+    writes nothing either, but makes an empty directory ``SB3-<date-time>`` in the system's temporary directory at
+    every ``learn()`` (one per run, resumed run and sweep trial)."""
+    if tensorboard_log is None:
+        model.set_logger(Logger(folder=None, output_formats=[]))
+    return model
 
 
 def saved_timesteps(path: Path) -> int:
@@ -317,6 +330,7 @@ def train(
         # SB3's load seeds the env and the global generators again from the model's seed: the new segment's
         # seed, or it would replay the first segment's episodes and random draws
         model = config.algo_class.load(source, env=env, tensorboard_log=tensorboard_log, seed=config.seed + done)
+        log_nowhere_without_tensorboard(model, tensorboard_log)
         if isinstance(model, OffPolicyAlgorithm):
             _restore_replay_buffer(model, config, out, source)
     if source is None or done < config.n_timesteps:  # a resumed run's too: its new total steps

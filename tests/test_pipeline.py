@@ -9,6 +9,7 @@ import re
 import signal
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 import zipfile
@@ -667,6 +668,21 @@ def test_resume_keeps_the_earlier_evaluations(tmp_path: Path) -> None:
     assert both["timesteps"].tolist() == [64, 128, 192, 256]
     np.testing.assert_array_equal(both["results"][:2], first["results"])
     np.testing.assert_array_equal(both["successes"][:2], first["successes"])
+
+
+def test_training_and_resuming_leave_nothing_in_the_temporary_directory(tmp_path: Path, monkeypatch: Any) -> None:
+    """Without TensorBoard, SB3's default logger wrote nothing but made an empty ``SB3-<date-time>`` directory in
+    the system's temporary directory at every ``learn()``: 1,546 of them in a day of runs, trials and tests
+    (torch keeps its caches there, reused by every run)."""
+    temporary = tmp_path / "tmp"
+    temporary.mkdir()
+    monkeypatch.setattr(tempfile, "tempdir", str(temporary))
+    entry = "vegym/Projectile-v0:\n  n_timesteps: 64\n  n_steps: 64\n  batch_size: 64\n  eval_freq: 64\n"
+    config = load_config(write_config(tmp_path, entry + "  n_eval_episodes: 1\n"), "vegym/Projectile-v0")
+    train(config, tmp_path / "run", progress_bar=False)
+    train(resume_config(tmp_path / "run", 128), tmp_path / "run", resume=True, progress_bar=False)
+    assert saved_timesteps(tmp_path / "run" / "model.zip") == 128
+    assert [path.name for path in temporary.iterdir() if path.name.startswith("SB3-")] == []  # torch keeps caches
 
 
 def test_an_abort_while_saving_leaves_the_last_complete_model(tmp_path: Path, monkeypatch: Any) -> None:
