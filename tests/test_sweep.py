@@ -46,6 +46,14 @@ POSTGRES_URL = os.environ.get("VEGYM_TEST_POSTGRES_URL")
 """A PostgreSQL database for the scale-out test; .ci/run starts a server on loopback and sets it."""
 
 
+@pytest.fixture(autouse=True)
+def _temporary_files_in_tmp_path(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """The sweeps these tests start put their trials' scratch directories in the test's own directory: a worker
+    killed mid-trial (the tests below kill some) cannot remove its ``vegym-trial-*`` directory, which was left in
+    the system's temporary directory (31 in a day of test runs)."""
+    monkeypatch.setenv("TMPDIR", str(tmp_path))
+
+
 def sweep_args(storage: str, study: str, trials: int, best: Path, *extra: str) -> list[str]:
     """A sweep whose trials take a second or two: TD3 on BouncingBall for 300 steps, 2 evaluation episodes; the
     best config goes to ``best`` (the default is runs/sweeps/ under the working directory)."""
