@@ -213,3 +213,14 @@ def test_observations_stay_in_the_box_when_the_target_is_nanometres_from_b() -> 
     for seed in range(150, 450):
         obs, _ = env.reset(seed=seed)
         assert env.observation_space.contains(obs), (seed, obs)
+
+
+def test_balls_a_million_kilometres_apart_still_collide_with_finite_results() -> None:
+    """The contact's root cancelled at large distances: balls up to 1e9 m apart (slowed by 1e-9 m/s^2, so that A
+    reaches B) found contacts at B's centre, and 7 of these 20 strikes gave NaN velocities and rewards."""
+    env = gym.make(ENV_ID, ball_distance_max=1e9, deceleration=1e-9)
+    for seed in range(20):
+        env.reset(seed=seed)
+        _, reward, _, _, info = env.step(np.zeros(2, np.float32))
+        assert info["contact"] and np.isfinite(reward), seed
+        assert np.all(np.isfinite(info["velocity_b"])) and np.isfinite(info["miss_distance"]), seed

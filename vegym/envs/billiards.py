@@ -263,7 +263,9 @@ def _step_kernel(
         dx, dz = cos_t * along_x + sin_t * -along_z, cos_t * along_z + sin_t * along_x
         speed = 0.5 * (u[2 * i + 1] + 1.0) * speed_max
         stop = speed * speed / (2.0 * deceleration)
-        reach = collision.contact_one(dx * ox + dz * oz, square, contact_distance)
+        along = dx * ox + dz * oz
+        offset_x, offset_z = ox - along * dx, oz - along * dz
+        reach = collision.contact_one(along, offset_x * offset_x + offset_z * offset_z, contact_distance)
         touch = reach <= stop
         aim_x[i], aim_z[i], contact[i] = dx, dz, touch
         impact[i] = collision.speed_after_one(speed, reach, deceleration) if touch else 0.0

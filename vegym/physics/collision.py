@@ -51,10 +51,10 @@ def impulse_one(closing_speed: float, mass_a: float, mass_b: float, restitution:
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def contact_one(b: float, square: float, contact_distance: float) -> float:
-    """:func:`first_contact` of one sphere from ``b = d . (c_b - c_a)`` (m) and ``|c_b - c_a|^2`` (m^2); ``+inf``
-    if it never touches."""
-    disc = b * b - (square - contact_distance * contact_distance)
+def contact_one(b: float, offset_square: float, contact_distance: float) -> float:
+    """:func:`first_contact` of one sphere from ``b = d . (c_b - c_a)`` (m) and ``|c_b - c_a - b d|^2`` (m^2), the
+    squared distance of B's centre from A's line of travel; ``+inf`` if it never touches."""
+    disc = contact_distance * contact_distance - offset_square
     # abs(disc) is disc wherever the root is used; the root of a value known >= 0 is the sqrt instruction, not a
     # libm call, so a loop over this gets SIMD code
     root = math.sqrt(abs(disc))
@@ -105,11 +105,13 @@ def _impact_each(
 def _contact_each(c_a: np.ndarray, direction: np.ndarray, c_b: np.ndarray, contact_distance: float) -> np.ndarray:
     out = np.empty(len(c_a))
     for i in range(len(c_a)):
-        b, square = 0.0, 0.0
+        b, offset_square = 0.0, 0.0
         for k in range(c_a.shape[1]):
             b += direction[i, k] * (c_b[i, k] - c_a[i, k])
-            square += (c_b[i, k] - c_a[i, k]) * (c_b[i, k] - c_a[i, k])
-        out[i] = contact_one(b, square, contact_distance)
+        for k in range(c_a.shape[1]):
+            offset = c_b[i, k] - c_a[i, k] - b * direction[i, k]
+            offset_square += offset * offset
+        out[i] = contact_one(b, offset_square, contact_distance)
     return out
 
 
@@ -242,8 +244,10 @@ def ghost_point(c_b: np.ndarray, direction: np.ndarray, contact_distance: float)
 def first_contact(c_a: np.ndarray, direction: np.ndarray, c_b: np.ndarray, contact_distance: float) -> np.ndarray:
     """Distance (n,) A's centre travels along the unit ``direction`` until it touches B, ``+inf`` if it never does.
 
-    The smallest ``s >= 0`` with ``|c_a + s d - c_b| = R``: ``s = b - sqrt(b^2 - (|c_b - c_a|^2 - R^2))`` with
-    ``b = d . (c_b - c_a)``. Spheres already overlapping (``|c_b - c_a| < R``) are outside the model.
+    The smallest ``s >= 0`` with ``|c_a + s d - c_b| = R``: ``s = b - sqrt(R^2 - |c_b - c_a - b d|^2)`` with
+    ``b = d . (c_b - c_a)``: the root ``sqrt(b^2 - (|c_b - c_a|^2 - R^2))`` without its cancellation, whose error
+    grew with the squared distance (3e-8 m at 1 km, 0.5 mm at 100 km; from 1,000 km it missed contacts, and
+    Billiards-v0 observed NaN). Spheres already overlapping (``|c_b - c_a| < R``) are outside the model.
     """
     shape, (c_a, direction, c_b), _ = _rows([c_a, direction, c_b], [])
     return _contact_each(c_a, direction, c_b, float(contact_distance)).reshape(shape[:-1])
