@@ -348,11 +348,11 @@ def test_a_thread_too_soft_for_the_rest_shape_solver_is_refused_naming_a_paramet
     )
 
 
-@pytest.mark.parametrize("pluck_margin", [0.0, 1e-300])
+@pytest.mark.parametrize("pluck_margin", [0.0, 1e-300, 5e-324])
 def test_plucks_reaching_the_ends_of_the_span_warn_of_nothing(pluck_margin: float) -> None:
     """pluck_margin=0 (the closed end of its range [0, 0.5)) puts the validation's extreme plucks at the ends of the
     span, where plucked() divided by their zero distance from the end in the side np.where discards: a numpy
-    RuntimeWarning 'divide by zero' at every make (a helper's fuzzing)."""
+    RuntimeWarning 'divide by zero' at every make (a helper's fuzzing); a subnormal margin's distance, 'overflow'."""
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         env = gym.make(ENV_ID, pluck_margin=pluck_margin)

@@ -131,8 +131,10 @@ def plucked(rest: np.ndarray, at: np.ndarray, height: np.ndarray, span: float) -
     ``height`` (n, 1) (m, negative down) at ``at`` (n, 1) (m along the span), in proportion to the distance from
     the nearer end."""
     x = rest[:, 0]
-    with np.errstate(divide="ignore", invalid="ignore"):  # both sides are computed: a pluck at an end (pluck_margin=0)
-        shape = np.where(x <= at, x / at, (span - x) / (span - at))  # divides by 0 on the side not taken
+    # both sides are computed: a pluck at an end (pluck_margin=0, or subnormal) divides by 0 (or overflows) on the
+    # side not taken
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        shape = np.where(x <= at, x / at, (span - x) / (span - at))
     positions = np.repeat(rest[None], len(at), axis=0)
     positions[..., 1] += height * shape
     return positions
