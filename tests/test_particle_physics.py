@@ -230,7 +230,7 @@ def test_batched_functions_equal_looped_bit_for_bit() -> None:
 
 
 def test_particle_params_reject_invalid_values_naming_them() -> None:
-    with pytest.raises(ValueError, match=r"gravity=0.0 is outside the allowed range \(0, inf\)"):
+    with pytest.raises(ValueError, match=r"gravity=0.0 is outside the allowed range \[1e-09, 1e\+09\]"):
         ParticleParams(gravity=0.0)
     with pytest.raises(ValueError, match="radius=-1"):
         ParticleParams(radius=-1)

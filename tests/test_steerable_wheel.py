@@ -184,9 +184,9 @@ def test_task_step_batched_equals_looped_bit_for_bit() -> None:
     [
         ("waypoint_margin", 10.0, r"waypoint_margin=10.0 is outside the allowed range \[0, arena_size / 2 = 10\)"),
         ("capture_radius", 12.0, r"capture_radius=12.0 is outside the allowed range \[0, arena_size / 2 = 10\)"),
-        ("dt", 2.0, r"dt=2.0 is outside the allowed range \(0, 1\]"),
+        ("dt", 2.0, r"dt=2.0 is outside the allowed range \[1e-09, 1\]"),
         ("n_waypoints", 0, r"n_waypoints=0 is outside the allowed range \[1, 64\]"),
-        ("max_yaw_rate", 0.0, r"max_yaw_rate=0.0 is outside the allowed range \(0, inf\)"),
+        ("max_yaw_rate", 0.0, r"max_yaw_rate=0.0 is outside the allowed range \[1e-09, 1e\+09\]"),
         ("n_waypoints", 2.5, r"n_waypoints=2.5 must be an integer"),
     ],
 )

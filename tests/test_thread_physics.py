@@ -163,7 +163,7 @@ def test_a_taut_thread_s_rest_shape_is_found_with_its_tension_s_rounding(params:
 
 def test_a_slack_thread_without_gravity_is_refused_naming_its_length() -> None:
     with pytest.raises(
-        ValueError, match=r"natural_length=0.2 is outside the allowed range \(0, span / \(n_nodes \+ 1\) = 0.11\)"
+        ValueError, match=r"natural_length=0.2 is outside the allowed range \[1e-09, span / \(n_nodes \+ 1\) = 0.11\)"
     ):
         ThreadParams(gravity=0.0, natural_length=0.2)
     assert thread.static_equilibrium(ThreadParams(gravity=0.0, natural_length=0.1))[:, 1] == pytest.approx(0.0)

@@ -17,6 +17,11 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+LARGEST = 1e9
+"""The largest magnitude of a float parameter whose range names no finite end on that side (SI units)."""
+SMALLEST = 1e-9
+"""The smallest value of a float parameter whose range is open at 0, a positive quantity (SI units)."""
+
 
 def param(
     default: Any,
@@ -31,8 +36,19 @@ def param(
     """A dataclass field with a default, a description and an allowed interval.
 
     ``low_open``/``high_open`` exclude the bound itself (``(low, high]`` etc.). An infinite bound is open (the
-    values are finite) unless ``infinite``: then ``inf`` (or ``-inf``) is allowed there, e.g. "no ceiling".
+    values are finite) unless ``infinite``: then ``inf`` (or ``-inf``) is allowed there, e.g. "no ceiling". A float
+    field (one with a float default) is held to magnitudes the models compute with: an infinite end of its range
+    is ``LARGEST`` instead (``-LARGEST`` below), unless ``infinite``, and an end open at 0 is ``SMALLEST``, closed;
+    beyond them the models' squares, products and quotients overflowed or underflowed into inf or NaN
+    observations (gravity 1e-200, speeds 1e155, a yaw rate of 1e25 rad/s).
     """
+    if isinstance(default, float):
+        if high == math.inf and not infinite:
+            high, high_open = LARGEST, False
+        if low == -math.inf and not infinite:
+            low, low_open = -LARGEST, False
+        if low == 0.0 and low_open:
+            low, low_open = SMALLEST, False
     return dataclasses.field(
         default=default,
         metadata={

@@ -13,7 +13,7 @@ from vegym import rng
 from vegym.envs import schedule
 from vegym.envs.base import Info, KernelCall, State, Task, VegymEnv, VegymVectorEnv
 from vegym.envs.schedule import ScheduledParams
-from vegym.params import Params, invalid, param
+from vegym.params import SMALLEST, Params, invalid, param
 from vegym.physics import pendulum, vmath
 from vegym.physics.columns import scratch
 from vegym.physics.particle import STANDARD_GRAVITY
@@ -49,15 +49,13 @@ class PendulumPumpParams(ScheduledParams, Params):
         if self.target_min > self.target_max:
             raise invalid("target_min", self.target_min, f"[0, target_max={self.target_max}]")
         _ = self.schedule  # raises ValueError if change_interval_min or final_hold is out of range
-        inertia = self.physics.inertia
-        if not 0.0 < inertia < math.inf:  # the dynamics divide by m L^2: 0 raised ZeroDivisionError, inf gave NaN
-            allowed = f"lengths whose m L^2 is a positive finite float (mass={self.mass!r}: m L^2 = {inertia:g})"
-            raise invalid("length", self.length, allowed)
         stable = self.physics.max_stable_step()
         if self.step_length >= stable:  # semi-implicit Euler is unstable at steps of ``stable`` and longer
             pendulum = self.named("length", "mass", "gravity", "damping")
             if self.dt >= 1000 * stable:
-                allowed = f"(0, 1000 substeps x {stable:.4g} s), the stable step of the pendulum of {pendulum}"
+                allowed = (
+                    f"[{SMALLEST:g}, 1000 substeps x {stable:.4g} s), the stable step of the pendulum of {pendulum}"
+                )
                 raise invalid("dt", self.dt, allowed)
             fewest = math.floor(self.dt / stable) + 1
             allowed = f"[{fewest}, 1000] for dt={self.dt} (stable step {stable:.4g} s, for {pendulum})"

@@ -11,7 +11,7 @@ from numba import njit
 
 from vegym import rng
 from vegym.envs.base import Info, KernelCall, State, Task, VegymEnv, VegymVectorEnv
-from vegym.params import Params, invalid, param
+from vegym.params import LARGEST, SMALLEST, Params, invalid, param
 from vegym.physics import projectile, vmath
 from vegym.physics.columns import scratch
 from vegym.physics.particle import STANDARD_GRAVITY
@@ -49,11 +49,15 @@ class ProjectileEnvParams(Params):
             raise invalid("launch_height_min", self.launch_height_min, f"[radius={self.radius}, launch_height_max]")
         if self.launch_height_max < self.launch_height_min:
             raise invalid(
-                "launch_height_max", self.launch_height_max, f"[launch_height_min={self.launch_height_min}, inf)"
+                "launch_height_max",
+                self.launch_height_max,
+                f"[launch_height_min={self.launch_height_min}, {LARGEST:g}]",
             )
         if self.target_distance_min > self.target_distance_max:
             raise invalid(
-                "target_distance_min", self.target_distance_min, f"(0, target_distance_max={self.target_distance_max}]"
+                "target_distance_min",
+                self.target_distance_min,
+                f"[{SMALLEST:g}, target_distance_max={self.target_distance_max}]",
             )
         if self.speed_min > self.speed_max:
             raise invalid("speed_min", self.speed_min, f"[0, speed_max={self.speed_max}]")
@@ -63,7 +67,8 @@ class ProjectileEnvParams(Params):
             raise invalid(
                 "target_distance_max",
                 self.target_distance_max,
-                f"(0, reachable_distance={self.reachable_distance:.4g}], the range at speed_max - wind_speed_max = "
+                f"[{SMALLEST:g}, "
+                f"reachable_distance={self.reachable_distance:.4g}], the range at speed_max - wind_speed_max = "
                 f"{self.speed_max} - {self.wind_speed_max} m/s from launch_height_min - radius = "
                 f"{self.launch_height_min} - {self.radius} m "
                 f"under gravity={self.gravity} m/s^2",

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from vegym.params import Params, invalid, param
+from vegym.params import SMALLEST, Params, invalid, param
 from vegym.physics.particle import STANDARD_GRAVITY
 
 
@@ -45,7 +45,10 @@ class ThreadParams(Params):
 
     def validate(self) -> None:
         if self.gravity == 0.0 and not self.natural_length < self.spacing:
-            allowed = f"(0, span / (n_nodes + 1) = {self.spacing:g}) without gravity, where a slack thread has no rest"
+            allowed = (
+                f"[{SMALLEST:g}, "
+                f"span / (n_nodes + 1) = {self.spacing:g}) without gravity, where a slack thread has no rest"
+            )
             raise invalid("natural_length", self.natural_length, allowed)
 
     @property
@@ -321,11 +324,6 @@ def energy(positions: np.ndarray, velocities: np.ndarray, params: ThreadParams) 
     return out
 
 
-_LEAST_SHIFT = float(np.finfo(np.float64).tiny)
-"""The least shift of :func:`static_equilibrium`'s Newton matrix: ``1e-6 S`` alone underflowed to 0 for the
-stiffnesses below about 2.5e-318, and the search for a positive definite matrix never ended."""
-
-
 @functools.lru_cache(maxsize=32)
 @np.errstate(over="ignore", invalid="ignore", divide="ignore")  # a far too slack thread overflows: refused, no warning
 def static_equilibrium(params: ThreadParams, tolerance: float = 1e-12) -> np.ndarray:
@@ -364,7 +362,7 @@ def static_equilibrium(params: ThreadParams, tolerance: float = 1e-12) -> np.nda
             return result
         shift = 0.0
         while np.linalg.eigvalsh(stiffness + shift * np.eye(2 * n))[0] <= 0.0:
-            shift = max(2.0 * shift, 1e-6 * p.stiffness, _LEAST_SHIFT)  # 1e-6 S is 0 for S below about 2.5e-318
+            shift = max(2.0 * shift, 1e-6 * p.stiffness)
         delta = np.linalg.solve(stiffness + shift * np.eye(2 * n), residual).reshape(positions.shape)
         potential = energy(positions, zero, p)[0]
         t = 1.0
