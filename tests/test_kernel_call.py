@@ -1,6 +1,10 @@
 """The single env's bound kernel calls: the packed shim must do exactly what the kernel called directly does."""
 
 import gc
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -88,3 +92,20 @@ def test_a_shim_compiled_for_another_layout_is_not_used(monkeypatch: pytest.Monk
     bound = bind_kernel(_mixed_kernel, arguments)
     assert not hasattr(bound, "arrays")
     assert bound() == _mixed_kernel(*_arguments())
+
+
+@pytest.mark.skipif(not hasattr(os, "getuid"), reason="the lock file is POSIX's")
+def test_a_compile_lock_file_that_cannot_be_opened_leaves_the_first_reset_unlocked_not_failing(tmp_path: Path) -> None:
+    """Another user's ``vegym-kernel-call-<uid>.lock`` in a shared temporary directory (here a directory of that
+    name, which not even root opens as a file) made every process's first single-env reset raise PermissionError
+    (a helper's review)."""
+    (tmp_path / f"vegym-kernel-call-{os.getuid()}.lock").mkdir()
+    code = "import gymnasium as gym, vegym; gym.make('vegym/Projectile-v0').reset(seed=0); print('reset')"
+    done = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        env={**os.environ, "TMPDIR": str(tmp_path)},
+    )
+    assert done.returncode == 0 and done.stdout.strip() == "reset", done.stderr

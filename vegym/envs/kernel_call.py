@@ -110,14 +110,21 @@ def _compile_lock() -> Iterator[None]:
     """Serialise compiling shims across processes: numba reads, changes and rewrites ``_call_packed``'s one cache
     index without a lock, so two processes saving different layouts at once could pair one layout with the other's
     code. A file lock where the platform has one (POSIX); elsewhere :func:`bind_kernel` still finds such code out
-    (numba registers it under its own layout's signature)."""
+    (numba registers it under its own layout's signature), as it does when the lock file cannot be opened: another
+    user's file of that name in a shared temporary directory, say, which made every single env's reset raise
+    PermissionError."""
     try:
         import fcntl
     except ImportError:
         yield
         return
     user = os.getuid() if hasattr(os, "getuid") else 0
-    with open(os.path.join(tempfile.gettempdir(), f"vegym-kernel-call-{user}.lock"), "a") as lock:
+    try:
+        lock = open(os.path.join(tempfile.gettempdir(), f"vegym-kernel-call-{user}.lock"), "a")
+    except OSError:
+        yield
+        return
+    with lock:
         fcntl.flock(lock, fcntl.LOCK_EX)
         try:
             yield
