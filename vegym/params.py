@@ -146,6 +146,22 @@ class Params:
         """The parameters as plain keyword arguments."""
         return dataclasses.asdict(self)  # type: ignore[call-overload]
 
+    def above(self, name: str, upper: str) -> ValueError:
+        """The ``ValueError`` for field ``name`` above a bound that other fields set: its allowed range from the
+        field's own lower end to ``upper``, text that ends the interval (``"pluck_max=0.1]"``, and any reason)."""
+        meta = self._metadata(name)
+        return invalid(name, getattr(self, name), f"{'(' if meta['low_open'] else '['}{meta['low']:g}, {upper}")
+
+    def below(self, name: str, lower: str) -> ValueError:
+        """The ``ValueError`` for field ``name`` below a bound that other fields set: its allowed range from
+        ``lower``, text that opens the interval (``"(min_speed=60"``), to the field's own upper end."""
+        meta = self._metadata(name)
+        return invalid(name, getattr(self, name), f"{lower}, {meta['high']:g}{')' if meta['high_open'] else ']'}")
+
+    @classmethod
+    def _metadata(cls, name: str) -> typing.Mapping[str, Any]:
+        return next(f.metadata for f in dataclasses.fields(cls) if f.name == name)  # type: ignore[arg-type]
+
     def named(self, *names: str) -> str:
         """``"name=value, ..."`` of the fields ``names`` (numbers as ``:g``), for errors that name the parameters a
         bound depends on."""

@@ -13,7 +13,7 @@ from vegym import rng
 from vegym.envs import schedule
 from vegym.envs.base import Info, KernelCall, State, Task, VegymEnv, VegymVectorEnv
 from vegym.envs.schedule import ScheduledParams
-from vegym.params import LARGEST, Params, invalid, param
+from vegym.params import Params, invalid, param
 from vegym.physics import aircraft, vmath
 from vegym.physics.aircraft import STANDARD_RATE, AircraftParams, AircraftState
 
@@ -67,7 +67,7 @@ class AircraftEnvParams(ScheduledParams, Params):
                 f"[floor_altitude={self.floor_altitude}, altitude_max={self.altitude_max}]",
             )
         if self.altitude_max >= self.ceiling_altitude:
-            raise invalid("ceiling_altitude", self.ceiling_altitude, f"(altitude_max={self.altitude_max}, {LARGEST:g}]")
+            raise self.below("ceiling_altitude", f"(altitude_max={self.altitude_max}")
         if not self.min_speed <= self.speed_demand_min <= self.speed_demand_max:
             raise invalid(
                 "speed_demand_min",

@@ -11,7 +11,7 @@ from numba import njit
 
 from vegym import rng
 from vegym.envs.base import Info, KernelCall, State, Task, VegymEnv, VegymVectorEnv
-from vegym.params import LARGEST, SMALLEST, Params, invalid, param
+from vegym.params import Params, invalid, param
 from vegym.physics import collision, vmath
 from vegym.physics.columns import scratch
 
@@ -43,23 +43,11 @@ class BilliardsParams(Params):
 
     def validate(self) -> None:
         if not self.ball_distance_min > self.contact_distance:
-            raise invalid(
-                "ball_distance_min",
-                self.ball_distance_min,
-                f"(radius_a + radius_b = {self.contact_distance:g}, {LARGEST:g}]",
-            )
+            raise self.below("ball_distance_min", f"(radius_a + radius_b = {self.contact_distance:g}")
         if self.ball_distance_min > self.ball_distance_max:
-            raise invalid(
-                "ball_distance_min",
-                self.ball_distance_min,
-                f"[{SMALLEST:g}, ball_distance_max={self.ball_distance_max}]",
-            )
+            raise self.above("ball_distance_min", f"ball_distance_max={self.ball_distance_max}]")
         if self.target_distance_min > self.target_distance_max:
-            raise invalid(
-                "target_distance_min",
-                self.target_distance_min,
-                f"[{SMALLEST:g}, target_distance_max={self.target_distance_max}]",
-            )
+            raise self.above("target_distance_min", f"target_distance_max={self.target_distance_max}]")
         if not self.bearing_max < self.largest_bearing:
             allowed = f"[0, acos((radius_a + radius_b) / ball_distance_min) = {self.largest_bearing:.6g})"
             raise invalid("bearing_max", self.bearing_max, allowed)

@@ -10,7 +10,7 @@ from numba import njit
 
 from vegym import rng
 from vegym.envs.base import Info, KernelCall, State, Task, VegymEnv, VegymVectorEnv
-from vegym.params import SMALLEST, Params, invalid, param
+from vegym.params import Params, invalid, param
 from vegym.physics import particle
 from vegym.physics.columns import pairwise_sum, scratch
 from vegym.physics.particle import STANDARD_GRAVITY, ParticleParams
@@ -50,9 +50,7 @@ class BouncingBallParams(Params):
                 "target_max", self.target_max, f"[target_min={self.target_min}, drop_height={self.drop_height}]"
             )
         if self.target_ratio_min > self.target_ratio_max:
-            raise invalid(
-                "target_ratio_min", self.target_ratio_min, f"[{SMALLEST:g}, target_ratio_max={self.target_ratio_max}]"
-            )
+            raise self.above("target_ratio_min", f"target_ratio_max={self.target_ratio_max}]")
 
     @property
     def particle(self) -> ParticleParams:

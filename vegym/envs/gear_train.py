@@ -10,7 +10,7 @@ from numba import njit
 
 from vegym import rng
 from vegym.envs.base import Info, KernelCall, State, Task, VegymEnv, VegymVectorEnv
-from vegym.params import LARGEST, SMALLEST, Params, invalid, param
+from vegym.params import Params, invalid, param
 from vegym.physics import vmath, wheel
 from vegym.physics.columns import scratch
 
@@ -40,14 +40,12 @@ class GearTrainParams(Params):
         if self.gears_min > self.gears_max:
             raise invalid("gears_min", self.gears_min, f"[2, gears_max={self.gears_max}]")
         if self.radius_min > self.radius_max:
-            raise invalid("radius_min", self.radius_min, f"[{SMALLEST:g}, radius_max={self.radius_max}]")
+            raise self.above("radius_min", f"radius_max={self.radius_max}]")
         if self.target_interval < self.dt:
-            raise invalid("target_interval", self.target_interval, f"[dt={self.dt}, {LARGEST:g}]")
+            raise self.below("target_interval", f"[dt={self.dt}")
         if not self.ratio_max * self.max_speed * self.dt < np.pi:
-            raise invalid(
+            raise self.above(
                 "max_speed",
-                self.max_speed,
-                f"[{SMALLEST:g}, "
                 f"pi / (dt * radius_max / radius_min) = pi / ({self.dt} * {self.radius_max} / {self.radius_min})"
                 f" = {np.pi / (self.dt * self.ratio_max):.4g})",
             )

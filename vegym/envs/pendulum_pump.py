@@ -13,7 +13,7 @@ from vegym import rng
 from vegym.envs import schedule
 from vegym.envs.base import Info, KernelCall, State, Task, VegymEnv, VegymVectorEnv
 from vegym.envs.schedule import ScheduledParams
-from vegym.params import SMALLEST, Params, invalid, param
+from vegym.params import Params, invalid, param
 from vegym.physics import pendulum, vmath
 from vegym.physics.columns import scratch
 from vegym.physics.particle import STANDARD_GRAVITY
@@ -53,10 +53,9 @@ class PendulumPumpParams(ScheduledParams, Params):
         if self.step_length >= stable:  # semi-implicit Euler is unstable at steps of ``stable`` and longer
             pendulum = self.named("length", "mass", "gravity", "damping")
             if self.dt >= 1000 * stable:
-                allowed = (
-                    f"[{SMALLEST:g}, 1000 substeps x {stable:.4g} s), the stable step of the pendulum of {pendulum}"
+                raise self.above(
+                    "dt", f"1000 substeps x {stable:.4g} s), the stable step of the pendulum of {pendulum}"
                 )
-                raise invalid("dt", self.dt, allowed)
             fewest = math.floor(self.dt / stable) + 1
             allowed = f"[{fewest}, 1000] for dt={self.dt} (stable step {stable:.4g} s, for {pendulum})"
             raise invalid("substeps", self.substeps, allowed)

@@ -11,7 +11,7 @@ from numba import njit
 
 from vegym import rng
 from vegym.envs.base import Info, KernelCall, State, Task, VegymEnv, VegymVectorEnv
-from vegym.params import LARGEST, SMALLEST, Params, invalid, param
+from vegym.params import Params, invalid, param
 from vegym.physics import projectile, vmath
 from vegym.physics.columns import scratch
 from vegym.physics.particle import STANDARD_GRAVITY
@@ -48,26 +48,16 @@ class ProjectileEnvParams(Params):
         if self.launch_height_min < self.radius:
             raise invalid("launch_height_min", self.launch_height_min, f"[radius={self.radius}, launch_height_max]")
         if self.launch_height_max < self.launch_height_min:
-            raise invalid(
-                "launch_height_max",
-                self.launch_height_max,
-                f"[launch_height_min={self.launch_height_min}, {LARGEST:g}]",
-            )
+            raise self.below("launch_height_max", f"[launch_height_min={self.launch_height_min}")
         if self.target_distance_min > self.target_distance_max:
-            raise invalid(
-                "target_distance_min",
-                self.target_distance_min,
-                f"[{SMALLEST:g}, target_distance_max={self.target_distance_max}]",
-            )
+            raise self.above("target_distance_min", f"target_distance_max={self.target_distance_max}]")
         if self.speed_min > self.speed_max:
             raise invalid("speed_min", self.speed_min, f"[0, speed_max={self.speed_max}]")
         if self.wind_speed_max >= self.speed_max:
             raise invalid("wind_speed_max", self.wind_speed_max, f"[0, speed_max={self.speed_max})")
         if self.target_distance_max > self.reachable_distance:
-            raise invalid(
+            raise self.above(
                 "target_distance_max",
-                self.target_distance_max,
-                f"[{SMALLEST:g}, "
                 f"reachable_distance={self.reachable_distance:.4g}], the range at speed_max - wind_speed_max = "
                 f"{self.speed_max} - {self.wind_speed_max} m/s from launch_height_min - radius = "
                 f"{self.launch_height_min} - {self.radius} m "

@@ -13,7 +13,7 @@ from vegym import rng
 from vegym.envs.base import Info, KernelCall, State, Task, VegymEnv, VegymVectorEnv
 from vegym.envs.projectile import AZIMUTH_LIMIT, ELEVATION_LIMIT, ProjectileEnvParams, ProjectileTask, _shoot, _start
 from vegym.envs.projectile import SHOT_COLUMNS as PROJECTILE_SHOT_COLUMNS
-from vegym.params import SMALLEST, invalid, param
+from vegym.params import param
 from vegym.physics import projectile, vmath
 from vegym.physics.columns import scratch
 
@@ -37,7 +37,7 @@ class ProjectileAdjustParams(ProjectileEnvParams):
 
     def validate(self) -> None:
         if self.wind_speed_max >= self.speed_max:  # before Projectile-v0's check, whose range includes 0
-            raise invalid("wind_speed_max", self.wind_speed_max, f"[{SMALLEST:g}, speed_max={self.speed_max})")
+            raise self.above("wind_speed_max", f"speed_max={self.speed_max})")
         super().validate()
 
     @property

@@ -11,7 +11,7 @@ from numba import njit
 
 from vegym import rng
 from vegym.envs.base import Info, KernelCall, State, Task, VegymEnv, VegymVectorEnv
-from vegym.params import SMALLEST, Params, invalid, param
+from vegym.params import Params, invalid, param
 from vegym.physics import suspension
 from vegym.physics.particle import STANDARD_GRAVITY
 from vegym.physics.suspension import SpringParams
@@ -64,17 +64,14 @@ class SuspensionParams(Params):
         if self.slope_min > self.slope_max:
             raise invalid("slope_min", self.slope_min, f"[0, slope_max={self.slope_max}]")
         if self.wavelength_min > self.wavelength_max:
-            raise invalid(
-                "wavelength_min", self.wavelength_min, f"[{SMALLEST:g}, wavelength_max={self.wavelength_max}]"
-            )
+            raise self.above("wavelength_min", f"wavelength_max={self.wavelength_max}]")
         stable = self.spring.max_stable_step(self.damping_max)
         if self.dt >= stable:
             allowed = (
-                f"[{SMALLEST:g}, "
                 f"{stable:.4g}): semi-implicit Euler is unstable beyond it, for damping_max={self.damping_max:g}, "
                 f"mass={self.mass:g}, modulus={self.modulus:g} and natural_length={self.natural_length:g}"
             )
-            raise invalid("dt", self.dt, allowed)
+            raise self.above("dt", allowed)
 
     @property
     def spring(self) -> SpringParams:

@@ -11,7 +11,7 @@ from numba import njit
 
 from vegym import rng
 from vegym.envs.base import Info, KernelCall, State, Task, VegymEnv, VegymVectorEnv
-from vegym.params import SMALLEST, Params, invalid, param
+from vegym.params import Params, invalid, param
 from vegym.physics import thread
 from vegym.physics.particle import STANDARD_GRAVITY
 from vegym.physics.thread import ThreadParams
@@ -58,13 +58,13 @@ class ThreadEnvParams(Params):
         if self.n_actuators > self.n_nodes:
             raise invalid("n_actuators", self.n_actuators, f"[1, n_nodes={self.n_nodes}]")
         if self.pluck_min > self.pluck_max:
-            raise invalid("pluck_min", self.pluck_min, f"[{SMALLEST:g}, pluck_max={self.pluck_max}]")
+            raise self.above("pluck_min", f"pluck_max={self.pluck_max}]")
         if thread.substeps(self.dt, self.physics) > MOST_SUBSTEPS:
             # substeps of at most half the stable step min(sqrt(m/S), m/c): that step at least 2 dt / MOST_SUBSTEPS
             m, rate = self.node_mass, 0.5 * MOST_SUBSTEPS / self.dt
             why = f"node_mass={m!r} and dt={self.dt!r}: at most {MOST_SUBSTEPS} stable substeps per step"
             if self.drag == 0.0 or math.sqrt(m / self.stiffness) < m / self.drag:  # the spring's bound binds
-                raise invalid("stiffness", self.stiffness, f"[{SMALLEST:g}, {m * rate * rate:.6g}] for {why}")
+                raise self.above("stiffness", f"{m * rate * rate:.6g}] for {why}")
             raise invalid("drag", self.drag, f"[0, {m * rate:.6g}] for {why}")
         try:
             rest = thread.static_equilibrium(self.physics)

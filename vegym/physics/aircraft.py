@@ -34,7 +34,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from vegym.params import LARGEST, Params, check_positive, invalid, param
+from vegym.params import Params, check_positive, invalid, param
 from vegym.physics import vmath
 from vegym.physics.columns import flat_columns
 
@@ -62,7 +62,7 @@ class AircraftParams(Params):
 
     def validate(self) -> None:
         if self.max_speed <= self.min_speed:
-            raise invalid("max_speed", self.max_speed, f"(min_speed={self.min_speed}, {LARGEST:g}]")
+            raise self.below("max_speed", f"(min_speed={self.min_speed}")
         if self.ceiling_altitude <= self.floor_altitude:
             raise invalid("ceiling_altitude", self.ceiling_altitude, f"(floor_altitude={self.floor_altitude}, inf]")
 

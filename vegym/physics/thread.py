@@ -27,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from vegym.params import SMALLEST, Params, invalid, param
+from vegym.params import Params, param
 from vegym.physics.particle import STANDARD_GRAVITY
 
 
@@ -45,11 +45,8 @@ class ThreadParams(Params):
 
     def validate(self) -> None:
         if self.gravity == 0.0 and not self.natural_length < self.spacing:
-            allowed = (
-                f"[{SMALLEST:g}, "
-                f"span / (n_nodes + 1) = {self.spacing:g}) without gravity, where a slack thread has no rest"
-            )
-            raise invalid("natural_length", self.natural_length, allowed)
+            allowed = f"span / (n_nodes + 1) = {self.spacing:g}) without gravity, where a slack thread has no rest"
+            raise self.above("natural_length", allowed)
 
     @property
     def spacing(self) -> float:
