@@ -3,9 +3,9 @@
 For each env: single-env steps/s through ``gymnasium.make`` (default wrappers), native vector env-steps/s at
 several batch sizes, the analytic controller's batched ``predict`` rate (observations/s) and the peak memory
 of the process. CartPole-v1 and its native ``CartPoleVectorEnv`` are measured with the same loops right before
-each vegym measurement, three times: a cell shows the env's best rate and the median ratio (vegym / CartPole) of
-the three back-to-back pairs, each pair taken seconds apart under the same load; the CartPole row is the median of
-CartPole's best rates beside every env.
+each vegym measurement, three times (``--pairs``): a cell shows the env's best rate and the median ratio (vegym /
+CartPole) of the back-to-back pairs, each pair taken seconds apart under the same load; the CartPole row is the median
+of CartPole's best rates beside every env. More pairs settle a ratio near a target on a host whose speed drifts.
 
 Env-steps/s counts as Gymnasium does: every ``step`` call times ``num_envs``. Under Gymnasium's NEXT_STEP
 autoreset the step after an episode's end only starts the next episode (no transition, reward 0), so an env whose
@@ -13,7 +13,7 @@ episodes last one step (Projectile, Billiards) spends half its counted steps tha
 one in twenty. A second table gives each env's share of transitions among its counted steps (measured on an
 untimed run of the same loop) and the ratio counted per transition. The single env's loop counts transitions only
 (its resets are timed, not counted). Run:
-``python benchmarks/speed.py [--json] [--seconds S] [--envs ID ...]`` (ids with or without ``vegym/``).
+``python benchmarks/speed.py [--json] [--seconds S] [--pairs N] [--envs ID ...]`` (ids with or without ``vegym/``).
 """
 
 from __future__ import annotations
@@ -146,16 +146,16 @@ def paired(measure_one: Callable[[str], float], env_id: str, rounds: int = 3) ->
     )
 
 
-def measure(env_ids: list[str], seconds: float) -> dict:
-    """Rates of every env and of CartPole measured right before each, by column."""
+def measure(env_ids: list[str], seconds: float, pairs: int = 3) -> dict:
+    """Rates of every env and of CartPole measured right before each, by column, in ``pairs`` pairs."""
     columns: dict[str, Callable[[str], float]] = {"single": lambda e: single_rate(e, seconds)}
     for n in VECTOR_SIZES:
         columns[f"vector_{n}"] = lambda e, n=n: vector_rate(e, n, seconds)
-    results: dict = {"cartpole": {}, "envs": {}}
+    results: dict = {"pairs": pairs, "cartpole": {}, "envs": {}}
     for env_id in env_ids:
         row: dict = {"cartpole": {}, "ratio": {}}
         for column, measure_one in columns.items():
-            row["cartpole"][column], row[column], row["ratio"][column] = paired(measure_one, env_id)
+            row["cartpole"][column], row[column], row["ratio"][column] = paired(measure_one, env_id, pairs)
         row["predict_8192"] = predict_rate(env_id, 8192, seconds)
         row["transition_share"] = {f"vector_{n}": transition_share(env_id, n) for n in VECTOR_SIZES}
         results["envs"][env_id] = row
@@ -180,8 +180,9 @@ def table(results: dict) -> str:
     for env_id, row in results["envs"].items():
         cells = [f"{row[c]:.3g} ({row['ratio'][c]:.2f}x)" for c in columns]
         lines.append(f"| {env_id} | " + " | ".join(cells) + f" | {row['predict_8192']:.3g} |")
+    pairs = results["pairs"]
     lines.append(
-        "\nsteps/s, best of three (median ratio of three back-to-back pairs with CartPole, same loop); "
+        f"\nsteps/s, best of {pairs} (median ratio of {pairs} back-to-back pairs with CartPole, same loop); "
         f"peak memory {results['peak_memory_mib']:.0f} MiB\n"
     )
     vector_columns = [f"vector_{n}" for n in VECTOR_SIZES]
@@ -205,6 +206,7 @@ def main() -> None:
     parser.add_argument(
         "--seconds", type=float, default=0.5, help="a timing lasts 1/3 to 2/3 of it; a measurement about twice it (s)"
     )
+    parser.add_argument("--pairs", type=int, default=3, help="back-to-back pairs with CartPole per cell (default: 3)")
     parser.add_argument(
         "--envs", nargs="+", default=list(vegym.ENVS), help="vegym env ids, e.g. Aircraft-v0 (default: all)"
     )
@@ -213,7 +215,9 @@ def main() -> None:
         env_ids = [vegym.resolve_env_id(name) for name in args.envs]
     except ValueError as exc:
         parser.error(str(exc))
-    results = measure(env_ids, args.seconds)
+    if args.pairs < 1:
+        parser.error(f"--pairs={args.pairs} is outside the allowed range [1, inf)")
+    results = measure(env_ids, args.seconds, args.pairs)
     print(json.dumps(results, indent=2) if args.json else table(results))
 
 
