@@ -7,6 +7,7 @@ import gc
 import math
 import subprocess
 import sys
+from collections import deque
 from typing import Any
 
 import gymnasium as gym
@@ -16,8 +17,10 @@ import pytest
 import vegym  # noqa: F401
 from vegym.envs.base import load_object
 from vegym.render import canvas
+from vegym.render.bouncing_ball import SHOWN_FLIGHTS
 from vegym.render.canvas import pygame
 from vegym.render.gear_train import MOST_TEETH, TOOTH_PITCH, gear_outline
+from vegym.render.pendulum_pump import TRAIL
 from vegym.render.projectile import side_world
 from vegym.render.projectile_adjust import beside_clear_of_ring
 
@@ -838,3 +841,37 @@ def test_aircraft_heading_chart_breaks_its_line_where_the_heading_wraps() -> Non
     t = np.arange(4.0)
     segments = AircraftRenderer._unwrapped_segments(t, np.array([170.0, 179.0, -179.0, -170.0]), True)
     assert [len(segment) for segment in segments] == [2, 2]
+
+
+@pytest.mark.parametrize(
+    "env_id", ["vegym/Aircraft-v0", "vegym/Suspension-v0", "vegym/PendulumPump-v0", "vegym/GearTrain-v0"]
+)
+def test_a_renderer_keeps_the_latest_steps_of_an_episode_without_a_time_limit(
+    env_id: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The renderers kept every step of an episode and drew them all: without a time limit, memory and frame time
+    grew with it (Aircraft-v0: 23.6 MB more and 54 ms a frame after 50,000 steps; a helper's review). They keep the
+    latest ``canvas.HISTORY`` now, and GearTrain's strip still puts its errors at their steps' times."""
+    monkeypatch.setattr(canvas, "HISTORY", 8)
+    env = gym.make(env_id, render_mode="rgb_array", max_episode_steps=-1)
+    env.reset(seed=0)
+    for _ in range(40):  # within the first episode of each of these envs
+        env.step(np.zeros(env.action_space.shape, np.float32))
+    renderer = env.unwrapped._renderer
+    kept = {name: len(value) for name, value in vars(renderer).items() if isinstance(value, list | deque)}
+    assert kept and all(length <= max(8, TRAIL + 1) for length in kept.values()), kept
+    polylines = record_calls(monkeypatch, canvas.Panel, "polyline")
+    assert env.render().shape[2] == 3
+    if env_id == "vegym/GearTrain-v0":
+        (errors,) = [points for _, points, *_ in polylines if np.shape(points) == (8, 2)]
+        np.testing.assert_allclose(errors[:, 0], 0.05 * np.arange(33, 41))  # steps 33 to 40 of 0.05 s
+
+
+def test_the_bouncing_ball_keeps_the_flights_it_shows_and_counts_every_bounce() -> None:
+    env = gym.make("vegym/BouncingBall-v0", render_mode="rgb_array", episode_bounces=60, max_episode_steps=60)
+    env.reset(seed=0)
+    for _ in range(45):
+        env.step(np.ones(1, np.float32))  # restitution 1: no ball comes to rest
+    renderer = env.unwrapped._renderer
+    assert renderer.bounces == 45 and len(renderer.flights) == SHOWN_FLIGHTS + 1
+    env.render()

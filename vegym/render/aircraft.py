@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from collections import deque
 from typing import Any
 
 import numpy as np
@@ -22,25 +23,26 @@ _SILHOUETTE = np.concatenate([_HALF, _HALF[-2:0:-1] * [1.0, -1.0]])
 
 
 class AircraftRenderer:
-    """Records the flight of a single env and draws the whole episode so far."""
+    """Records the flight of a single env and draws the episode so far (its latest :data:`~vegym.render.canvas.HISTORY`
+    steps)."""
 
     def __init__(self, params: AircraftEnvParams) -> None:
         self.params = params
-        self.times: list[float] = []
-        self.positions: list[np.ndarray] = []
-        self.speeds: list[float] = []
-        self.headings: list[float] = []
-        self.demands: list[np.ndarray] = []
+        self.times: deque[float] = canvas.history()
+        self.positions: deque[np.ndarray] = canvas.history()
+        self.speeds: deque[float] = canvas.history()
+        self.headings: deque[float] = canvas.history()
+        self.demands: deque[np.ndarray] = canvas.history()
         self.state: dict[str, np.ndarray] = {}
         self.last: dict[str, Any] = {}
 
     def reset(self, state: dict[str, np.ndarray]) -> None:
         self.state = {k: v[0] for k, v in state.items()}
-        self.times = [0.0]
-        self.positions = [self.state["position"].copy()]
-        self.speeds = [float(self.state["speed"])]
-        self.headings = [float(self.state["heading"])]
-        self.demands = [self.state["demand"].copy()]
+        self.times = canvas.history(0.0)
+        self.positions = canvas.history(self.state["position"].copy())
+        self.speeds = canvas.history(float(self.state["speed"]))
+        self.headings = canvas.history(float(self.state["heading"]))
+        self.demands = canvas.history(self.state["demand"].copy())
         self.last = {}
 
     def record(self, state: dict[str, np.ndarray], info: dict[str, Any]) -> None:

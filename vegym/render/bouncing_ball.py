@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections import deque
 from typing import Any
 
 import numpy as np
@@ -21,14 +22,18 @@ class BouncingBallRenderer:
 
     def __init__(self, params: BouncingBallParams) -> None:
         self.params = params
-        self.flights: list[tuple[float, float, float, float]] = []  # (t_impact, rebound speed, apex, target)
+        # (t_impact, rebound speed, apex, target) of the latest flights: one more than shown, to tell whether the
+        # first one shown is the episode's
+        self.flights: deque[tuple[float, float, float, float]] = deque(maxlen=SHOWN_FLIGHTS + 1)
+        self.bounces = 0
         self.first_impact = 0.0
         self.time = 0.0
         self.targets: np.ndarray = np.zeros(0)
         self.last: dict[str, Any] = {}
 
     def reset(self, state: dict[str, np.ndarray]) -> None:
-        self.flights = []
+        self.flights = deque(maxlen=SHOWN_FLIGHTS + 1)
+        self.bounces = 0
         self.first_impact = self.time = float(state["time"][0])
         self.targets = state["targets"][0].copy()
         self.last = {}
@@ -36,6 +41,7 @@ class BouncingBallRenderer:
     def record(self, state: dict[str, np.ndarray], info: dict[str, Any]) -> None:
         rebound = info["restitution"] * info["impact_speed"]
         self.flights.append((self.time, rebound, info["apex_height"], info["target_height"]))
+        self.bounces += 1
         self.time = float(state["time"][0])
         self.targets = state["targets"][0].copy()
         self.last = info
@@ -44,7 +50,7 @@ class BouncingBallRenderer:
         p = self.params
         g, r = p.gravity, p.radius
         surface = canvas.new_surface(WIDTH, HEIGHT)
-        shown = self.flights[-SHOWN_FLIGHTS:]
+        shown = list(self.flights)[-SHOWN_FLIGHTS:]
         start_time = shown[0][0] if len(self.flights) > SHOWN_FLIGHTS else 0.0
         span = max((self.time - start_time) / (1.0 - AHEAD), 4.0)
         resting = bool(self.flights) and self.flights[-1][1] < p.rest_speed  # the episode has terminated
@@ -73,7 +79,7 @@ class BouncingBallRenderer:
         for h in np.arange(0.0, p.drop_height * 1.05, canvas.tick_step(p.drop_height, 0.5, 12)):
             x, y = panel.to_px(start_time, h)
             canvas.text(surface, [f"{h:.1f}"], (x - 34, y - 6), 16, canvas.GREY)
-        bounce = len(self.flights)
+        bounce = self.bounces
         if resting:
             ahead = "at rest: episode over"
         else:

@@ -5,6 +5,7 @@ Nothing here opens a window; :mod:`vegym.render.window` does that for ``render_m
 
 from __future__ import annotations
 
+import collections
 import functools
 import itertools
 import math
@@ -28,8 +29,17 @@ RED: Color = (210, 50, 40)
 GREEN: Color = (30, 150, 60)
 ORANGE: Color = (235, 140, 20)
 
+HISTORY = 10_000
+"""Steps of an episode a renderer keeps (its latest): the longest registered episode has 1,000, and one without a
+time limit draws in bounded time and memory (every step kept, Aircraft-v0 took 54 ms a frame after 50,000)."""
+
 _FONTS: dict[int, pygame.font.Font] = {}
 _Draw = TypeVar("_Draw", bound=Callable[..., Any])
+
+
+def history(*first: Any) -> collections.deque:
+    """A renderer's record of an episode's latest :data:`HISTORY` steps, starting with ``first``."""
+    return collections.deque(first, maxlen=HISTORY)
 
 
 def tick_step(extent: float, finest: float, most: int) -> float:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections import deque
 from typing import Any
 
 import numpy as np
@@ -49,12 +50,12 @@ class GearTrainRenderer:
         self.params = params
         self.task = GearTrainTask(params)
         self.state: dict[str, np.ndarray] = {}
-        self.errors: list[float] = []
+        self.errors: deque[float] = canvas.history()
         self.last: dict[str, Any] = {}
 
     def reset(self, state: dict[str, np.ndarray]) -> None:
         self.state = {k: v[:1].copy() for k, v in state.items()}
-        self.errors = []
+        self.errors = canvas.history()
         self.last = {}
 
     def record(self, state: dict[str, np.ndarray], info: dict[str, Any]) -> None:
@@ -104,14 +105,15 @@ class GearTrainRenderer:
 
     def _strip(self, surface: Any) -> None:
         p = self.params
-        horizon = max(len(self.errors), 2 * p.interval_steps) * p.dt
+        steps = int(self.state["step"][0]) if self.state else 0  # one error recorded per step, the latest kept
+        horizon = max(steps, 2 * p.interval_steps) * p.dt
         panel = canvas.Panel(surface, (60, 365, WIDTH - 80, 110), (0.0, horizon, -180.0, 180.0))
         panel.frame(canvas.LIGHT)
         panel.line((0.0, 0.0), (horizon, 0.0), canvas.LIGHT)
         for change in np.arange(p.interval_steps, horizon / p.dt, p.interval_steps) * p.dt:
             panel.dashed((change, -180.0), (change, 180.0), canvas.LIGHT, dashes=8)
         if self.errors:
-            t = p.dt * np.arange(1, len(self.errors) + 1)
+            t = p.dt * np.arange(steps - len(self.errors) + 1, steps + 1)
             panel.polyline(np.stack([t, np.degrees(self.errors)], axis=-1), canvas.BLUE, 2)
         canvas.text(surface, ["+180"], (20, 360), 15, canvas.GREY)
         canvas.text(surface, ["-180"], (22, 465), 15, canvas.GREY)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections import deque
 from typing import Any
 
 import numpy as np
@@ -22,9 +23,9 @@ class PendulumPumpRenderer:
         self.params = params
         self.physics = params.physics
         self.state: dict[str, np.ndarray] = {}
-        self.times: list[float] = []
-        self.amplitudes: list[float] = []
-        self.targets: list[float] = []
+        self.times: deque[float] = canvas.history()
+        self.amplitudes: deque[float] = canvas.history()
+        self.targets: deque[float] = canvas.history()
         self.bobs: list[np.ndarray] = []
         self.last: dict[str, Any] = {}
         self.total_reward = 0.0
@@ -32,9 +33,11 @@ class PendulumPumpRenderer:
     def reset(self, state: dict[str, np.ndarray]) -> None:
         self.state = {k: v[0].copy() for k, v in state.items()}
         theta, omega = self.state["theta"], self.state["omega"]
-        self.times = [0.0]
-        self.amplitudes = [float(pendulum.energy_amplitude(pendulum.energy(theta, omega, self.physics), self.physics))]
-        self.targets = [float(self.state["target"])]
+        self.times = canvas.history(0.0)
+        self.amplitudes = canvas.history(
+            float(pendulum.energy_amplitude(pendulum.energy(theta, omega, self.physics), self.physics))
+        )
+        self.targets = canvas.history(float(self.state["target"]))
         self.bobs = [self._bob(float(theta))]
         self.last = {}
         self.total_reward = 0.0

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections import deque
 from typing import Any
 
 import numpy as np
@@ -34,13 +35,13 @@ class SteerableWheelRenderer:
     def __init__(self, params: SteerableWheelParams) -> None:
         self.params = params
         self.state: dict[str, np.ndarray] = {}
-        self.trail: list[np.ndarray] = []
+        self.trail: deque[np.ndarray] = canvas.history()
         self.last: dict[str, Any] = {}
         self.total_reward = 0.0
 
     def reset(self, state: dict[str, np.ndarray]) -> None:
         self.state = {k: v[0].copy() for k, v in state.items()}
-        self.trail = [self.state["position"]]
+        self.trail = canvas.history(self.state["position"])
         self.last = {}
         self.total_reward = 0.0
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections import deque
 from typing import Any
 
 import numpy as np
@@ -27,15 +28,15 @@ class SuspensionRenderer:
     def __init__(self, params: SuspensionParams) -> None:
         self.params = params
         self.state: dict[str, np.ndarray] = {}
-        self.times: list[float] = []
-        self.accelerations: list[float] = []
-        self.travels: list[float] = []
+        self.times: deque[float] = canvas.history()
+        self.accelerations: deque[float] = canvas.history()
+        self.travels: deque[float] = canvas.history()
         self.last: dict[str, Any] = {}
         self.total_reward = 0.0
 
     def reset(self, state: dict[str, np.ndarray]) -> None:
         self.state = {k: v[:1].copy() for k, v in state.items()}
-        self.times, self.accelerations, self.travels = [0.0], [0.0], [0.0]
+        self.times, self.accelerations, self.travels = canvas.history(0.0), canvas.history(0.0), canvas.history(0.0)
         self.last = {}
         self.total_reward = 0.0
 

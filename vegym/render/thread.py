@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections import deque
 from typing import Any
 
 import numpy as np
@@ -28,14 +29,14 @@ class ThreadRenderer:
         self.rest = thread.static_equilibrium(self.physics)
         self.actuated = params.actuated
         self.state: dict[str, np.ndarray] = {}
-        self.times: list[float] = []
-        self.fractions: list[float] = []
+        self.times: deque[float] = canvas.history()
+        self.fractions: deque[float] = canvas.history()
         self.last: dict[str, Any] = {}
         self.total_reward = 0.0
 
     def reset(self, state: dict[str, np.ndarray]) -> None:
         self.state = {k: v[0].copy() for k, v in state.items()}
-        self.times, self.fractions = [0.0], [1.0]
+        self.times, self.fractions = canvas.history(0.0), canvas.history(1.0)
         self.last = {}
         self.total_reward = 0.0
 
