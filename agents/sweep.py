@@ -529,7 +529,17 @@ def sweep(
     settings: SweepSettings, workers: int = 1, threads: int = 1, log: Callable[[str], None] = print
 ) -> optuna.Study:
     """Run ``workers`` worker processes on the study (in this process if 1) until it is complete; each trains
-    with ``threads`` torch threads. Logs where the study is once it is open."""
+    with ``threads`` torch threads. Logs where the study is once it is open. Optuna's log verbosity (held at
+    WARNING while it runs) and this process's torch threads are as they were when it returns."""
+    verbosity, torch_threads = optuna.logging.get_verbosity(), torch.get_num_threads()
+    try:
+        return _sweep(settings, workers, threads, log)
+    finally:
+        optuna.logging.set_verbosity(verbosity)
+        torch.set_num_threads(torch_threads)
+
+
+def _sweep(settings: SweepSettings, workers: int, threads: int, log: Callable[[str], None]) -> optuna.Study:
     if workers < 1:
         raise ValueError(f"workers={workers!r} must be at least 1")
     if settings.trials < 1:

@@ -17,6 +17,7 @@ import gymnasium as gym
 import optuna
 import pytest
 import sqlalchemy
+import torch
 from optuna.storages import RetryHeartbeatStaleTrialCallback
 from optuna.storages._heartbeat import HeartbeatThread
 from optuna.trial import TrialState
@@ -277,6 +278,24 @@ def test_a_trial_s_training_stops_on_the_stop_event(monkeypatch: pytest.MonkeyPa
     with pytest.raises(KeyboardInterrupt):
         sweep_module.objective(optuna.create_study().ask(), settings, lambda agent: 0.0, stop)
     assert handed == [stop]
+
+
+def test_a_sweep_in_this_process_leaves_optuna_s_verbosity_and_torch_s_threads_as_they_were(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """sweep() held Optuna's verbosity at WARNING and set this process's torch threads for its one worker, and left
+    them so for the caller (a helper's review)."""
+    monkeypatch.setattr(sweep_module, "objective", lambda *args: 0.0)
+    threads, verbosity = torch.get_num_threads(), optuna.logging.get_verbosity()
+    settings = SweepSettings("vegym/BouncingBall-v0", "td3", 1, f"sqlite:///{tmp_path / 'study.db'}", "restored")
+    try:
+        optuna.logging.set_verbosity(optuna.logging.DEBUG)
+        torch.set_num_threads(2)
+        sweep_module.sweep(settings, workers=1, threads=1, log=lambda line: None)
+        assert optuna.logging.get_verbosity() == optuna.logging.DEBUG and torch.get_num_threads() == 2
+    finally:
+        optuna.logging.set_verbosity(verbosity)
+        torch.set_num_threads(threads)
 
 
 def test_a_trial_has_a_heartbeat_before_its_objective_runs(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
