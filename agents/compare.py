@@ -32,7 +32,6 @@ from agents.evaluation import (
     short_runs,
 )
 from agents.multiseed import seed_configs, train_seeds
-from agents.plots import save_episode_gif, save_score_chart, save_trajectory_plot
 from agents.training import (
     CHECKPOINT_DIR,
     CONFIG_FILE,
@@ -297,6 +296,8 @@ def compare(
 ) -> tuple[list[dict[str, Any]], list[str]]:
     """Evaluate and draw every env of ``env_ids``; write the files into ``out``, rewritten after each env (a later
     env's failure keeps the earlier ones' results); return the records and notes."""
+    from agents.plots import save_episode_gif, save_score_chart, save_trajectory_plot  # matplotlib: only to draw
+
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     records: list[dict[str, Any]] = []

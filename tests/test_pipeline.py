@@ -579,6 +579,18 @@ def test_evaluate_cli_reproduces_the_projectile_firing_solution(tmp_path: Path) 
     assert record["normalized_score"] == pytest.approx(1.0)
 
 
+def test_evaluate_draws_nothing_and_imports_no_matplotlib(tmp_path: Path) -> None:
+    """evaluate imported agents.compare and with it matplotlib (0.7-0.9 s, and a font cache written in the home
+    directory) to draw nothing (a helper's review)."""
+    code = (
+        "import sys; from agents.cli import main\n"
+        "assert main(['evaluate', '--env', 'Projectile-v0', '--agent', 'analytic', '--episodes', '1']) == 0\n"
+        "print('matplotlib' in sys.modules)"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    assert done.returncode == 0 and done.stdout.strip().splitlines()[-1] == "False", done.stdout + done.stderr
+
+
 def test_random_agent_is_reproducible_and_scores_zero() -> None:
     factory = agent_factory("random", "vegym/Projectile-v0")[1]
     first = evaluate("vegym/Projectile-v0", "random", factory, 5)
