@@ -10,9 +10,11 @@ against each stronger reference of the env (:data:`REFERENCE_AGENTS`) and the ta
 
 from __future__ import annotations
 
+import contextlib
 import math
+import random
 import warnings
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
@@ -20,6 +22,7 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
+import torch
 from gymnasium import spaces
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
@@ -75,18 +78,33 @@ class LearnedAgent:
         return self.model.predict(obs, state, episode_start, deterministic)
 
 
+@contextlib.contextmanager
+def _global_generators_kept() -> Iterator[None]:
+    """Python's, numpy's and torch's global random generators as they were on entry, on exit: SB3's ``load`` seeds
+    them all from the model's training seed."""
+    states = random.getstate(), np.random.get_state(), torch.random.get_rng_state()  # noqa: NPY002 (the legacy one)
+    try:
+        yield
+    finally:
+        random.setstate(states[0])
+        np.random.set_state(states[1])  # noqa: NPY002
+        torch.random.set_rng_state(states[2])
+
+
 def load_learned(path: Path) -> tuple[LearnedAgent, TrainConfig]:
     """A trained agent from a run directory (its ``model.zip``) or a model zip, with its resolved config.
 
     The config is ``config.yml`` beside the zip or one level up (checkpoints); VecNormalize statistics, when the
-    config normalises, are the ones saved with that zip.
+    config normalises, are the ones saved with that zip. The global random generators are left as they were (SB3's
+    ``load`` seeds them from the model's training seed).
     """
     path = Path(path)
     model_path = path / MODEL_FILE if path.is_dir() else path
     if not model_path.is_file():
         raise ValueError(f"agent {str(path)!r}: no such model (expected a run directory or a .zip)")
     config = _model_config(model_path)
-    model = config.algo_class.load(model_path, device="cpu")
+    with _global_generators_kept():
+        model = config.algo_class.load(model_path, device="cpu")
     normalizer = None
     if config.normalize_kwargs() is not None:
         stats = normalize_path(model_path)

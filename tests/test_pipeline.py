@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import os
 import queue
+import random
 import re
 import signal
 import subprocess
@@ -27,6 +28,7 @@ from stable_baselines3 import SAC
 from stable_baselines3.common.callbacks import BaseCallback, EvalCallback
 from stable_baselines3.common.vec_env import DummyVecEnv
 
+import agents
 import vegym
 from agents import cli, compare, multiseed, training
 from agents.cli import _print_table, build_parser, main
@@ -589,6 +591,18 @@ def test_evaluate_draws_nothing_and_imports_no_matplotlib(tmp_path: Path) -> Non
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=300, cwd=tmp_path)
     assert done.returncode == 0 and done.stdout.strip().splitlines()[-1] == "False", done.stdout + done.stderr
+
+
+def test_loading_a_learned_agent_leaves_the_global_random_generators_as_they_were() -> None:
+    """SB3's load seeds Python's, numpy's and torch's global generators from the model's training seed: loading an
+    agent to evaluate it reseeded the caller's (a helper's review)."""
+    run = Path(agents.__file__).parent / "pretrained" / "Projectile-v0" / "ppo" / "seed_1"
+    draws = (random.random, np.random.random, lambda: torch.rand(1).item())  # noqa: NPY002 (the legacy global one)
+    random.seed(7), np.random.seed(7), torch.manual_seed(7)  # noqa: NPY002
+    expected = [draw() for draw in draws]
+    random.seed(7), np.random.seed(7), torch.manual_seed(7)  # noqa: NPY002
+    load_learned(run)
+    assert [draw() for draw in draws] == expected
 
 
 def test_random_agent_is_reproducible_and_scores_zero() -> None:
