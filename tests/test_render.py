@@ -865,6 +865,11 @@ def test_a_renderer_keeps_the_latest_steps_of_an_episode_without_a_time_limit(
     if env_id == "vegym/GearTrain-v0":
         (errors,) = [points for _, points, *_ in polylines if np.shape(points) == (8, 2)]
         np.testing.assert_allclose(errors[:, 0], 0.05 * np.arange(33, 41))  # steps 33 to 40 of 0.05 s
+        dashes = record_calls(monkeypatch, canvas.Panel, "dashed")
+        renderer.state["step"][0] = 10**6  # far on: the strip spans the kept steps, not a million of them
+        env.render()
+        changes = [start for _, start, end, *_ in dashes if start[1] == -180.0 and end[1] == 180.0]
+        assert 1 <= len(changes) <= 2 and all(49_999.6 <= x <= 50_010.0 for x, _ in changes), changes
 
 
 def test_the_bouncing_ball_keeps_the_flights_it_shows_and_counts_every_bounce() -> None:

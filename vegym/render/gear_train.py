@@ -105,19 +105,24 @@ class GearTrainRenderer:
 
     def _strip(self, surface: Any) -> None:
         p = self.params
-        steps = int(self.state["step"][0]) if self.state else 0  # one error recorded per step, the latest kept
-        horizon = max(steps, 2 * p.interval_steps) * p.dt
-        panel = canvas.Panel(surface, (60, 365, WIDTH - 80, 110), (0.0, horizon, -180.0, 180.0))
+        # one error recorded per step: the strip shows the steps whose errors are kept (from the start until
+        # canvas.HISTORY steps), and at least two target intervals
+        steps = int(self.state["step"][0]) if self.state else 0
+        first = steps - len(self.errors)
+        start = first * p.dt
+        end = start + max(steps - first, 2 * p.interval_steps) * p.dt
+        panel = canvas.Panel(surface, (60, 365, WIDTH - 80, 110), (start, end, -180.0, 180.0))
         panel.frame(canvas.LIGHT)
-        panel.line((0.0, 0.0), (horizon, 0.0), canvas.LIGHT)
-        for change in np.arange(p.interval_steps, horizon / p.dt, p.interval_steps) * p.dt:
+        panel.line((start, 0.0), (end, 0.0), canvas.LIGHT)
+        first_change = (first // p.interval_steps + 1) * p.interval_steps
+        for change in np.arange(first_change, end / p.dt, p.interval_steps) * p.dt:
             panel.dashed((change, -180.0), (change, 180.0), canvas.LIGHT, dashes=8)
         if self.errors:
-            t = p.dt * np.arange(steps - len(self.errors) + 1, steps + 1)
+            t = p.dt * np.arange(first + 1, steps + 1)
             panel.polyline(np.stack([t, np.degrees(self.errors)], axis=-1), canvas.BLUE, 2)
         canvas.text(surface, ["+180"], (20, 360), 15, canvas.GREY)
         canvas.text(surface, ["-180"], (22, 465), 15, canvas.GREY)
-        canvas.axis_ticks(surface, panel, 0.0, horizon, -180.0, 1.0)
+        canvas.axis_ticks(surface, panel, start, end, -180.0, 1.0)
         canvas.text(surface, ["output error (deg) over time (s); dashes: target changes"], (60, 496), 16, canvas.GREY)
 
     def _numbers(self, surface: Any, gears: int, changing: bool) -> None:
