@@ -152,11 +152,13 @@ class Params:
         meta = self._metadata(name)
         return invalid(name, getattr(self, name), f"{'(' if meta['low_open'] else '['}{meta['low']:g}, {upper}")
 
-    def below(self, name: str, lower: str) -> ValueError:
+    def below(self, name: str, lower: str, reason: str = "") -> ValueError:
         """The ``ValueError`` for field ``name`` below a bound that other fields set: its allowed range from
-        ``lower``, text that opens the interval (``"(min_speed=60"``), to the field's own upper end."""
+        ``lower``, text that opens the interval (``"(min_speed=60"``), to the field's own upper end, then
+        ``reason``."""
         meta = self._metadata(name)
-        return invalid(name, getattr(self, name), f"{lower}, {meta['high']:g}{')' if meta['high_open'] else ']'}")
+        allowed = f"{lower}, {meta['high']:g}{')' if meta['high_open'] else ']'}{reason}"
+        return invalid(name, getattr(self, name), allowed)
 
     @classmethod
     def _metadata(cls, name: str) -> typing.Mapping[str, Any]:

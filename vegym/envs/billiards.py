@@ -56,11 +56,11 @@ class BilliardsParams(Params):
                 "restitution", "mass_a", "mass_b", "radius_a", "radius_b", "deceleration",
                 "ball_distance_min", "ball_distance_max", "target_distance_max", "bearing_max",
             )  # fmt: skip
-            raise invalid(
+            raise self.below(
                 "speed_max",
-                self.speed_max,
-                f"[required_speed={self.required_speed:.4g}, inf): the strike the farthest target at bearing_max needs "
-                f"(with {self.named(*depends)}); raise speed_max or ease those",
+                f"[required_speed={self.required_speed:.4g}",
+                f": the strike the farthest target at bearing_max needs (with {self.named(*depends)}); raise "
+                "speed_max or ease those",
             )
 
     @property

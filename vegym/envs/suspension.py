@@ -58,7 +58,7 @@ class SuspensionParams(Params):
     def validate(self) -> None:
         if self.static_length <= 0.0:
             weight = f"mass * gravity = {self.mass:g} * {self.gravity:g} = {self.mass * self.gravity:g}"
-            raise invalid("modulus", self.modulus, f"({weight}, inf): the spring bottoms out")
+            raise self.below("modulus", f"({weight}", ": the spring bottoms out")
         if self.damping_min > self.damping_max:
             raise invalid("damping_min", self.damping_min, f"[0, damping_max={self.damping_max}]")
         if self.slope_min > self.slope_max:
