@@ -116,12 +116,13 @@ def _compile_lock() -> Iterator[None]:
     try:
         import fcntl
     except ImportError:
-        yield
-        return
-    user = os.getuid() if hasattr(os, "getuid") else 0
-    try:
-        lock = open(os.path.join(tempfile.gettempdir(), f"vegym-kernel-call-{user}.lock"), "a")
-    except OSError:
+        fcntl = None
+    lock = None
+    if fcntl is not None:
+        user = os.getuid() if hasattr(os, "getuid") else 0
+        with contextlib.suppress(OSError):
+            lock = open(os.path.join(tempfile.gettempdir(), f"vegym-kernel-call-{user}.lock"), "a")
+    if lock is None:  # outside the except clauses: an error while compiling is not chained to theirs
         yield
         return
     with lock:
