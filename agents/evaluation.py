@@ -80,15 +80,15 @@ class LearnedAgent:
 
 @contextlib.contextmanager
 def _global_generators_kept() -> Iterator[None]:
-    """Python's, numpy's and torch's global random generators as they were on entry, on exit: SB3's ``load`` seeds
-    them all from the model's training seed."""
-    states = random.getstate(), np.random.get_state(), torch.random.get_rng_state()  # noqa: NPY002 (the legacy one)
+    """Python's, numpy's and torch's global random generators (CUDA's too) as they were on entry, on exit: SB3's
+    ``load`` seeds them all from the model's training seed."""
+    python, legacy_numpy = random.getstate(), np.random.get_state()  # noqa: NPY002 (the global one)
     try:
-        yield
+        with torch.random.fork_rng():
+            yield
     finally:
-        random.setstate(states[0])
-        np.random.set_state(states[1])  # noqa: NPY002
-        torch.random.set_rng_state(states[2])
+        random.setstate(python)
+        np.random.set_state(legacy_numpy)  # noqa: NPY002
 
 
 def load_learned(path: Path) -> tuple[LearnedAgent, TrainConfig]:
