@@ -270,7 +270,9 @@ def _step_kernel(
         bx, bz, dx, dz, v = b[2 * i], b[2 * i + 1], aim_x[i], aim_z[i], impact[i]
         px, pz = a[2 * i] + travel[i] * dx, a[2 * i + 1] + travel[i] * dz
         gap = math.sqrt((bx - px) * (bx - px) + (bz - pz) * (bz - pz))
-        nx, nz = (bx - px) / gap, (bz - pz) / gap
+        # A's centre on B's, in coordinates spaced wider than the balls are small (radii of 1e-9 m a million km
+        # out): head-on along the strike, where the line of centres (0 / 0) gave NaN
+        nx, nz = ((bx - px) / gap, (bz - pz) / gap) if gap > 0.0 else (dx, dz)
         strike_x, strike_z = v * dx, v * dz
         impulse = collision.impulse_one(strike_x * nx + strike_z * nz, mass_a, mass_b, restitution)  # B at rest
         after_a_x[i], after_a_z[i] = strike_x - impulse / mass_a * nx, strike_z - impulse / mass_a * nz
@@ -317,11 +319,13 @@ def _observe(ball_a: np.ndarray, ball_b: np.ndarray, target: np.ndarray, c: np.n
         along_x, along_z = ox / distance, oz / distance
         tx, tz = t[2 * i] - b[2 * i], t[2 * i + 1] - b[2 * i + 1]
         target_distance = math.sqrt(tx * tx + tz * tz)
-        # held to the box against rounding: a target nanometres from B is found from coordinates of metres
+        # held to the box against rounding: a target nanometres from B is found from coordinates of metres, and
+        # one on B in those coordinates (a nanometre from B a million km out) lies straight ahead, not at 0 / 0
+        apart = target_distance > 0.0
         o[4 * i] = min(distance / ball_distance_max, 1.0)
         o[4 * i + 1] = min(target_distance / target_distance_max, 1.0)
-        o[4 * i + 2] = min(max((tx * -along_z + tz * along_x) / target_distance, -1.0), 1.0)
-        o[4 * i + 3] = min(max((tx * along_x + tz * along_z) / target_distance, 0.0), 1.0)
+        o[4 * i + 2] = min(max((tx * -along_z + tz * along_x) / target_distance, -1.0), 1.0) if apart else 0.0
+        o[4 * i + 3] = min(max((tx * along_x + tz * along_z) / target_distance, 0.0), 1.0) if apart else 1.0
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
