@@ -60,7 +60,17 @@ def param(
 
 def interval_text(meta: typing.Mapping[str, Any]) -> str:
     """The allowed interval of a field as text, e.g. ``(0, inf)`` or ``[0, 1]``."""
-    return f"{'(' if meta['low_open'] else '['}{meta['low']:g}, {meta['high']:g}{')' if meta['high_open'] else ']'}"
+    return f"{_low_end(meta)}, {_high_end(meta)}"
+
+
+def _low_end(meta: typing.Mapping[str, Any]) -> str:
+    """The opening bracket and lower bound of a field's interval, e.g. ``(0``."""
+    return f"{'(' if meta['low_open'] else '['}{meta['low']:g}"
+
+
+def _high_end(meta: typing.Mapping[str, Any]) -> str:
+    """The upper bound and closing bracket of a field's interval, e.g. ``inf)``."""
+    return f"{meta['high']:g}{')' if meta['high_open'] else ']'}"
 
 
 def outside(values: Any, meta: typing.Mapping[str, Any]) -> Any:
@@ -149,16 +159,13 @@ class Params:
     def above(self, name: str, upper: str) -> ValueError:
         """The ``ValueError`` for field ``name`` above a bound that other fields set: its allowed range from the
         field's own lower end to ``upper``, text that ends the interval (``"pluck_max=0.1]"``, and any reason)."""
-        meta = self._metadata(name)
-        return invalid(name, getattr(self, name), f"{'(' if meta['low_open'] else '['}{meta['low']:g}, {upper}")
+        return invalid(name, getattr(self, name), f"{_low_end(self._metadata(name))}, {upper}")
 
     def below(self, name: str, lower: str, reason: str = "") -> ValueError:
         """The ``ValueError`` for field ``name`` below a bound that other fields set: its allowed range from
         ``lower``, text that opens the interval (``"(min_speed=60"``), to the field's own upper end, then
         ``reason``."""
-        meta = self._metadata(name)
-        allowed = f"{lower}, {meta['high']:g}{')' if meta['high_open'] else ']'}{reason}"
-        return invalid(name, getattr(self, name), allowed)
+        return invalid(name, getattr(self, name), f"{lower}, {_high_end(self._metadata(name))}{reason}")
 
     @classmethod
     def _metadata(cls, name: str) -> typing.Mapping[str, Any]:

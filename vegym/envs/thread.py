@@ -68,7 +68,7 @@ class ThreadEnvParams(Params):
             raise invalid("drag", self.drag, f"[0, {m * rate:.6g}] for {why}")
         try:
             rest = thread.static_equilibrium(self.physics)
-        except RuntimeError as error:  # too slack (natural_length=300), soft (stiffness=1e-300) or long (span=1e300)
+        except RuntimeError as error:  # too slack (natural_length=300), or too soft or too long for the solver
             sizes = {  # the size (m) each gives the thread: the largest is named
                 "natural_length": (self.n_nodes + 1) * self.natural_length,
                 "span": self.span,
