@@ -517,3 +517,17 @@ def controller_for(env: Any) -> AnalyticController:
             f"and {spaces[1]}: a wrapper changed them; give it the env without that wrapper"
         )
     return controller
+
+
+REFERENCE_AGENTS: dict[str, dict[str, Callable[[gym.Env], AnalyticController | BouncingBallOracle]]] = {
+    "vegym/BouncingBall-v0": {
+        "planner": lambda env: BouncingBallPlanner(env.unwrapped.params),
+        "oracle": BouncingBallOracle,
+    },
+    "vegym/AircraftGusty-v0": {
+        "draft-compensating": lambda env: AircraftDraftCompensatingAutopilot(env.unwrapped.params)
+    },
+    "vegym/Suspension-v0": {"continuous-skyhook": lambda env: SuspensionContinuousSkyhook(env.unwrapped.params)},
+}
+"""Stronger references than the analytic controller, per env (name -> factory of the agent for an env);
+:mod:`agents.evaluation` evaluates them beside it."""

@@ -12,6 +12,7 @@ import tempfile
 import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import gymnasium as gym
 from rich.console import Console
@@ -20,16 +21,11 @@ from rich.table import Table
 from rich.text import Text
 
 import vegym
-from agents.config import ALGOS, CONFIG_DIR, ConfigError, TrainConfig, load_config, make_kwargs, whole_number
-from agents.evaluation import (
-    EVAL_SEED,
-    REFERENCE_AGENTS,
-    agent_factory,
-    evaluate_agents,
-    run_episode,
-    short_runs,
-)
+from agents.basics import ALGO_NAMES, EVAL_SEED, whole_number
 from vegym import env_name
+
+if TYPE_CHECKING:  # the commands import the pipeline (torch, SB3, scipy) when they run
+    from agents.config import TrainConfig
 
 console = Console(highlight=False, width=None if sys.stdout.isatty() else 160)
 RETRAIN_SEEDS, RETRAIN_JOBS = [0, 1, 2], 2
@@ -80,7 +76,7 @@ def _print_table(title: str, columns: Sequence[str], rows: Sequence[Sequence[str
 
 def cmd_list(args: argparse.Namespace) -> int:
     """Print the registered envs."""
-    from agents.analytic import controller_for
+    from agents.analytic import REFERENCE_AGENTS, controller_for
 
     rows = []
     for env_id, spec in vegym.ENVS.items():
@@ -158,6 +154,8 @@ def cmd_train(args: argparse.Namespace) -> int:
 
 def _load_train_config(args: argparse.Namespace, env_id: str, seed: int | None) -> TrainConfig:
     """The config entry of ``env_id`` in ``--config`` (default configs/<algo>.yml) with the command's overrides."""
+    from agents.config import CONFIG_DIR, load_config
+
     overrides = {key: value for key, value in (("seed", seed), ("n_timesteps", args.timesteps)) if value is not None}
     config_path = Path(args.config) if args.config else CONFIG_DIR / f"{args.algo}.yml"
     return load_config(config_path, env_id, args.algo, overrides)
@@ -246,6 +244,7 @@ def _check_output(path: Path, suffix: str | None = None, makes_parents: bool = F
 def cmd_evaluate(args: argparse.Namespace) -> int:
     """Evaluate one agent; print its metrics as a table and JSON."""
     from agents.compare import TABLE_COLUMNS, table_rows
+    from agents.evaluation import agent_factory, evaluate_agents, short_runs
 
     env_id = vegym.resolve_env_id(args.env)
     if args.json:
@@ -346,6 +345,9 @@ def cmd_sweep(args: argparse.Namespace) -> int:
 
 def cmd_demo(args: argparse.Namespace) -> int:
     """Show episodes on screen, or save one as a GIF."""
+    from agents.config import make_kwargs
+    from agents.evaluation import agent_factory, run_episode
+
     env_id = vegym.resolve_env_id(args.env)
     if args.gif:
         _check_output(Path(args.gif), ".gif")
@@ -413,7 +415,7 @@ def build_parser() -> argparse.ArgumentParser:
         "Ctrl-C saves the model and exits (status 130); --resume continues from the newest checkpoint or model.",
     )
     p.add_argument("--env", required=True, help=env_help)
-    p.add_argument("--algo", required=True, choices=list(ALGOS), help="algorithm")
+    p.add_argument("--algo", required=True, choices=ALGO_NAMES, help="algorithm")
     p.add_argument("--config", help="config file (default: configs/<algo>.yml)")
     p.add_argument("--seed", type=_non_negative, help="seed (default: the config's, else 0)")
     p.add_argument(
@@ -463,7 +465,9 @@ def build_parser() -> argparse.ArgumentParser:
         default=str(Path(__file__).resolve().parent / "pretrained"),
         help="learned agents' directory (default: the shipped agents/pretrained)",
     )
-    p.add_argument("--algos", nargs="+", choices=list(ALGOS), default=list(ALGOS), help="learned algorithms to include")
+    p.add_argument(
+        "--algos", nargs="+", choices=ALGO_NAMES, default=list(ALGO_NAMES), help="learned algorithms to include"
+    )
     p.add_argument("--retrain", action="store_true", help="retrain the learned agents from the committed configs first")
     p.add_argument("--seeds", type=_seed_list, help="with --retrain: training seeds (default 0,1,2)")
     p.add_argument("--jobs", type=_positive, help="with --retrain: seeds trained at once (default 2)")
@@ -483,7 +487,7 @@ def build_parser() -> argparse.ArgumentParser:
         "that died are retried. The best trial is written as a configs/<algo>.yml block.",
     )
     p.add_argument("--env", required=True, help=env_help)
-    p.add_argument("--algo", required=True, choices=list(ALGOS), help="algorithm")
+    p.add_argument("--algo", required=True, choices=ALGO_NAMES, help="algorithm")
     p.add_argument("--trials", type=_positive, required=True, help="finished trials the study should hold")
     p.add_argument("--timesteps", type=_positive, help="training steps per trial (default: the config's)")
     p.add_argument("--storage", help="Optuna RDB URL, e.g. postgresql://user:pw@host/db (default: SQLite file)")
@@ -525,7 +529,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args.argv = argv
     try:
         return args.func(args)
-    except (ConfigError, ValueError) as exc:
+    except ValueError as exc:  # agents.config.ConfigError too
         say(f"error: {exc}", "red")
         return 2
     except (RuntimeError, OSError) as exc:

@@ -34,10 +34,11 @@ from stable_baselines3.common.off_policy_algorithm import OffPolicyAlgorithm
 from stable_baselines3.common.vec_env import VecNormalize
 
 import vegym
+from agents.basics import ALGO_NAMES, as_number, whole_number
 from vegym.envs.base import load_object
 
-ALGOS: dict[str, type[BaseAlgorithm]] = {"ppo": PPO, "sac": SAC, "td3": TD3}
-"""The algorithms a config may name (its file name)."""
+ALGOS: dict[str, type[BaseAlgorithm]] = dict(zip(ALGO_NAMES, (PPO, SAC, TD3), strict=True))
+"""The algorithms a config may name (its file name), by :data:`~agents.basics.ALGO_NAMES`."""
 
 _INSTALLED_CONFIGS = Path(__file__).resolve().parent / "configs"
 CONFIG_DIR = _INSTALLED_CONFIGS if _INSTALLED_CONFIGS.is_dir() else Path(__file__).resolve().parent.parent / "configs"
@@ -228,38 +229,6 @@ def _members(hint: Any) -> tuple[Any, ...]:
     return (hint,)
 
 
-def whole_number(value: Any) -> int | None:
-    """``value`` as an int if it is one, or a float or a string holding an integer, also one written as a float
-    without a fraction (``1e5``); else None (bools too). Integers and integer strings are read exactly."""
-    if isinstance(value, bool):
-        return None
-    if isinstance(value, int):
-        return value
-    if isinstance(value, str):
-        try:
-            return int(value)
-        except ValueError:
-            pass
-    number = _number(value)
-    if number is None or not math.isfinite(number) or number != int(number):
-        return None
-    return int(number)
-
-
-def _number(value: Any) -> float | None:
-    """``value`` as a float if it is a number or a string holding one (not a bool), else None."""
-    if isinstance(value, bool):
-        return None
-    if isinstance(value, (int, float)):
-        return float(value)
-    if isinstance(value, str):
-        try:
-            return float(value)
-        except ValueError:
-            return None
-    return None
-
-
 def coerce(value: Any, hint: Any, where: str) -> Any:
     """``value`` checked against the annotation ``hint`` and converted (numeric strings, lists to tuples)."""
     if hint is inspect.Parameter.empty or hint is Any:
@@ -290,7 +259,7 @@ def coerce(value: Any, hint: Any, where: str) -> Any:
             raise ConfigError(f"{where}: {value!r} is not an integer")
         return number
     if hint is float:
-        number = _number(value)
+        number = as_number(value)
         if number is None or math.isnan(number):
             raise ConfigError(f"{where}: {value!r} is not a real number")
         return number
@@ -538,7 +507,7 @@ def _check_late_settings(c: TrainConfig, where: str) -> None:
     and ``optimize_memory_usage``, which SB3's replay buffers refuse beside timeout handling and n-step returns."""
     ent_coef, target_entropy = c.hyperparams.get("ent_coef"), c.hyperparams.get("target_entropy")
     if isinstance(ent_coef, str) and ent_coef != AUTO:
-        start = _number(ent_coef.removeprefix(f"{AUTO}_")) if ent_coef.startswith(f"{AUTO}_") else None
+        start = as_number(ent_coef.removeprefix(f"{AUTO}_")) if ent_coef.startswith(f"{AUTO}_") else None
         if start is None or not start > 0.0:
             allowed = f"a number >= 0, {AUTO!r} or '{AUTO}_<start>' with a start above 0 (e.g. {AUTO}_0.1)"
             raise ConfigError(f"{where}: ent_coef={ent_coef!r}; give {allowed}")

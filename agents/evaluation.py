@@ -4,7 +4,7 @@ Every agent has SB3's ``predict(obs, state, episode_start, deterministic)`` and 
 single env: episode ``k`` of an evaluation starts from ``reset(seed=seed + k)``. Per env and agent it reports
 the mean and std of the return, the success rate (``info["is_success"]`` at the episode's last step), the
 normalized score ``(R - R_random) / (R_analytic - R_random)`` (1 matches the analytic controller), the score
-against each stronger reference of the env (:data:`REFERENCE_AGENTS`) and the task's own control metrics
+against each stronger reference of the env (:data:`agents.analytic.REFERENCE_AGENTS`) and the task's own control metrics
 (:data:`TASK_METRICS`), averaged over episodes.
 """
 
@@ -27,19 +27,11 @@ from gymnasium import spaces
 from stable_baselines3.common.base_class import BaseAlgorithm
 from stable_baselines3.common.vec_env import DummyVecEnv, VecNormalize
 
-from agents.analytic import (
-    AircraftDraftCompensatingAutopilot,
-    BouncingBallOracle,
-    BouncingBallPlanner,
-    SuspensionContinuousSkyhook,
-    controller_for,
-)
+from agents.analytic import REFERENCE_AGENTS, controller_for
+from agents.basics import EVAL_SEED
 from agents.config import TrainConfig, load_resolved, make_kwargs
 from agents.statistics import ScoreSummary, normalized, summarize
 from agents.training import CONFIG_FILE, MODEL_FILE, normalize_path, saved_timesteps, seed_runs
-
-EVAL_SEED = 1000
-"""First episode seed of evaluations; training uses small seeds, so the episodes differ."""
 
 Agent = Any
 """Anything with SB3's ``predict(observation, state, episode_start, deterministic) -> (action, state)``."""
@@ -160,18 +152,6 @@ def load_seeded(agent_dir: Path) -> tuple[dict[int, AgentFactory], TrainConfig]:
             )
     return factories, first
 
-
-REFERENCE_AGENTS: dict[str, dict[str, AgentFactory]] = {
-    "vegym/BouncingBall-v0": {
-        "planner": lambda env: BouncingBallPlanner(env.unwrapped.params),
-        "oracle": BouncingBallOracle,
-    },
-    "vegym/AircraftGusty-v0": {
-        "draft-compensating": lambda env: AircraftDraftCompensatingAutopilot(env.unwrapped.params)
-    },
-    "vegym/Suspension-v0": {"continuous-skyhook": lambda env: SuspensionContinuousSkyhook(env.unwrapped.params)},
-}
-"""Stronger references than the analytic controller, per env (name -> factory); evaluated beside it."""
 
 BASELINES: dict[str, Callable[[int], AgentFactory]] = {
     "analytic": lambda seed: controller_for,

@@ -24,8 +24,7 @@ from gymnasium.utils.env_checker import check_env as gym_check_env
 from stable_baselines3.common.env_checker import check_env as sb3_check_env
 
 import vegym
-from agents.analytic import controller_for
-from agents.evaluation import REFERENCE_AGENTS
+from agents.analytic import REFERENCE_AGENTS, controller_for
 from vegym import rng
 from vegym.envs import base
 from vegym.params import LARGEST, SMALLEST

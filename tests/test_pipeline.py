@@ -31,6 +31,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 import agents
 import vegym
 from agents import cli, compare, multiseed, training
+from agents.basics import ALGO_NAMES
 from agents.cli import _print_table, build_parser, main
 from agents.config import (
     ALGOS,
@@ -1149,6 +1150,22 @@ def test_every_command_has_help(command: str, capsys: pytest.CaptureFixture[str]
         main([command, "--help"])
     assert caught.value.code == 0
     assert f"usage: vegym {command}" in capsys.readouterr().out
+
+
+def test_the_command_parses_its_arguments_without_importing_torch_sb3_or_scipy() -> None:
+    """``vegym --help`` and argument errors answer at once (they took 3-5 s while the parser's module imported the
+    pipeline); the commands import it when they run."""
+    heavy = ("torch", "stable_baselines3", "scipy", "rliable", "matplotlib")
+    code = (
+        "import sys; from agents.cli import build_parser; build_parser().parse_args(['list']); "
+        f"print([m for m in {heavy!r} if m in sys.modules])"
+    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True)
+    assert done.stdout.strip() == "[]"
+
+
+def test_algo_names_of_the_parser_are_the_config_algorithms() -> None:
+    assert tuple(ALGOS) == ALGO_NAMES and all(cls.__name__.lower() == name for name, cls in ALGOS.items())
 
 
 def test_a_table_printed_into_a_pipe_keeps_every_cell_whole(capsys: pytest.CaptureFixture[str]) -> None:
