@@ -872,6 +872,26 @@ def test_a_renderer_keeps_the_latest_steps_of_an_episode_without_a_time_limit(
         assert 1 <= len(changes) <= 2 and all(49_999.6 <= x <= 50_010.0 for x, _ in changes), changes
 
 
+def test_projectile_adjust_keeps_the_latest_shots_of_steps_past_the_end_and_counts_them_all(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Steps past the end without a reset fire more shots: the renderer kept one more each, without bound. It keeps
+    the latest ``canvas.HISTORY`` now, and numbers them and times the flights over all of them."""
+    monkeypatch.setattr(canvas, "HISTORY", 4)
+    env = gym.make("vegym/ProjectileAdjust-v0", render_mode="rgb_array", max_episode_steps=-1)
+    env.reset(seed=0)
+    flight_times = []
+    for _ in range(10):
+        flight_times.append(env.step(np.zeros(3, np.float32))[4]["flight_time"])
+    renderer = env.unwrapped._renderer
+    assert len(renderer.shots) == 4 and renderer.fired == 10 and renderer.elapsed == sum(flight_times)
+    texts = record_calls(monkeypatch, canvas, "text")
+    env.render()
+    shown = [line for _, lines, *_ in texts for line in lines]
+    assert any("shot 10 of 3" in line for line in shown)
+    assert [line.split(":")[0] for line in shown if line.startswith("shot ") and ":" in line][-1] == "shot 10"
+
+
 def test_the_bouncing_ball_keeps_the_flights_it_shows_and_counts_every_bounce() -> None:
     env = gym.make("vegym/BouncingBall-v0", render_mode="rgb_array", episode_bounces=60, max_episode_steps=60)
     env.reset(seed=0)

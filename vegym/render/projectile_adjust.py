@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections import deque
 from typing import Any
 
 import numpy as np
@@ -34,19 +35,25 @@ def beside_clear_of_ring(
 
 
 class ProjectileAdjustRenderer:
-    """Draws the launcher, the target and all the shots of a single env's episode; the hidden wind in grey."""
+    """Draws the launcher, the target and the shots of a single env's episode (its latest
+    :data:`~vegym.render.canvas.HISTORY`: steps past the end without a reset fire more); the hidden wind in grey."""
 
     def __init__(self, params: ProjectileAdjustParams) -> None:
         self.params = params
         self.state: dict[str, np.ndarray] = {}
-        self.shots: list[dict[str, Any]] = []
+        self.shots: deque[dict[str, Any]] = canvas.history()
+        self.fired = 0
+        self.elapsed = 0.0
 
     def reset(self, state: dict[str, np.ndarray]) -> None:
         self.state = {k: v[:1] for k, v in state.items()}
-        self.shots = []
+        self.shots = canvas.history()
+        self.fired, self.elapsed = 0, 0.0
 
     def record(self, state: dict[str, np.ndarray], info: dict[str, Any]) -> None:
         self.shots.append(info)
+        self.fired += 1
+        self.elapsed += float(info["flight_time"])
 
     def draw(self) -> np.ndarray:
         p = self.params
@@ -78,7 +85,7 @@ class ProjectileAdjustRenderer:
         )
         ring = top.length_px(p.hit_radius)
         lines = []
-        for k, (shot, path) in enumerate(zip(self.shots, paths, strict=True)):
+        for k, (shot, path) in enumerate(zip(self.shots, paths, strict=True), start=self.fired - len(self.shots)):
             color = SHOT_COLORS[k % len(SHOT_COLORS)]
             side.polyline(np.stack([path @ along, path[:, 1] + p0[1]], -1), color)
             landing = np.array([shot["miss_across"], shot["miss_along"]])
@@ -100,10 +107,10 @@ class ProjectileAdjustRenderer:
                 f"({shot['miss_along']:+.2f} along, {shot['miss_across']:+.2f} across)   "
                 f"flight {shot['flight_time']:.2f} s"
             )
-        header = f"target {distance:.1f} m   launch height {p0[1]:.1f} m   shot {len(self.shots)} of {p.max_shots}"
+        header = f"target {distance:.1f} m   launch height {p0[1]:.1f} m   shot {self.fired} of {p.max_shots}"
         canvas.text(surface, [header], (12, 10), 20)
         for k, line in enumerate(lines[-_TEXT_LINES:]):
-            index = len(lines) - len(lines[-_TEXT_LINES:]) + k
+            index = self.fired - len(lines[-_TEXT_LINES:]) + k
             canvas.text(surface, [line], (40, 345 + 22 * k), 19, SHOT_COLORS[index % len(SHOT_COLORS)])
         canvas.text(surface, ["side view along the line of fire (m)"], (44, 72), 16, canvas.GREY)
         canvas.text(surface, [f"landings, +-{zoom:.1f} m"], (494, 72), 16, canvas.GREY)
@@ -119,6 +126,5 @@ class ProjectileAdjustRenderer:
             16,
             canvas.GREY,
         )
-        elapsed = float(sum(shot["flight_time"] for shot in self.shots))
-        clock.draw_clock(surface, elapsed, (WIDTH - clock.CORNER, clock.CORNER), clock.RADIUS)
+        clock.draw_clock(surface, self.elapsed, (WIDTH - clock.CORNER, clock.CORNER), clock.RADIUS)
         return canvas.to_array(surface)
