@@ -451,8 +451,11 @@ def _check(c: TrainConfig, where: str) -> None:
                 resolve_class(value, *NAMED_CLASSES[key])
             except ValueError as exc:
                 raise ConfigError(f"{where}: policy_kwargs: {key}: {exc}") from None
+    time_limit = c.env_kwargs.get(TIME_LIMIT, 1)
+    if isinstance(time_limit, bool) or not isinstance(time_limit, int) or time_limit < 1:
+        raise ConfigError(f"{where}: env_kwargs: {TIME_LIMIT}={time_limit!r}; give a positive integer")
     try:
-        env_params(c.env_id, c.env_kwargs)
+        env_params(c.env_id, {key: value for key, value in c.env_kwargs.items() if key != TIME_LIMIT})
     except (TypeError, ValueError) as exc:
         raise ConfigError(f"{where}: env_kwargs: {exc}") from None
 
@@ -558,6 +561,12 @@ def _task_class(env_id: str) -> Any:
     return load_object(f"{spec['module']}:{spec['env']}").task_cls
 
 
+TIME_LIMIT = "max_episode_steps"
+"""The ``env_kwargs`` key that is ``gymnasium.make``'s time limit, not an env parameter: RL Zoo passes ``env_kwargs``
+to ``gymnasium.make`` as they are, so an entry that changes a planned episode length gives it too (vegym adds it
+where missing, :func:`make_kwargs`)."""
+
+
 def env_params(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
     """The params dataclass ``gymnasium.make(env_id, **env_kwargs)`` would build (TypeError for an unknown
     parameter, ValueError for a value out of range), without making the env."""
@@ -566,13 +575,14 @@ def env_params(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:
 
 
 def make_kwargs(env_id: str, env_kwargs: Mapping[str, Any]) -> dict[str, Any]:
-    """Keyword arguments of ``gymnasium.make`` and ``make_vec`` for ``env_id`` with the parameters ``env_kwargs``:
-    those, and ``max_episode_steps`` where they set the episode length the task plans for (``episode_steps``,
-    ``episode_bounces``), which the registered time limit would otherwise cut short without a word."""
+    """Keyword arguments of ``gymnasium.make`` and ``make_vec`` for ``env_id`` with the parameters ``env_kwargs``
+    (and the time limit ``max_episode_steps`` where they give one): those, and ``max_episode_steps`` where they set
+    the episode length the task plans for (``episode_steps``, ``episode_bounces``) without a time limit, which the
+    registered one would otherwise cut short without a word."""
     kwargs = dict(env_kwargs)
     planned = _task_class(env_id).planned_length_param
-    if planned is not None and planned in kwargs:
-        kwargs["max_episode_steps"] = kwargs[planned]
+    if planned is not None and planned in kwargs and TIME_LIMIT not in kwargs:
+        kwargs[TIME_LIMIT] = kwargs[planned]
     return kwargs
 
 

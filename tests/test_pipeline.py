@@ -1036,6 +1036,21 @@ def test_a_config_episode_length_is_the_time_limit_of_training_and_evaluation() 
     assert make_kwargs("vegym/Aircraft-v0", {"wind_x": 1.0}) == {"wind_x": 1.0}  # the registered limit stands
 
 
+def test_a_config_may_give_the_time_limit_in_env_kwargs_as_rl_zoo_needs(tmp_path: Path) -> None:
+    """RL Zoo passes env_kwargs to gymnasium.make as they are, so an entry that changes a planned episode length
+    must give ``max_episode_steps`` too for RL Zoo (its episodes were cut at the registered 10 bounces without a
+    word); vegym took only env parameters there and refused it (a helper's RL Zoo check). It is the time limit now,
+    kept as given, and checked."""
+    entry = "vegym/BouncingBall-v0:\n  n_timesteps: 64\n  env_kwargs: {episode_bounces: 20, max_episode_steps: %s}\n"
+    config = load_config(write_config(tmp_path, entry % "20"), "vegym/BouncingBall-v0", "ppo")
+    assert make_kwargs(config.env_id, config.env_kwargs) == {"episode_bounces": 20, "max_episode_steps": 20}
+    assert make_env(config, 0, n_envs=1).venv.envs[0].spec.max_episode_steps == 20
+    assert make_kwargs(config.env_id, {"episode_bounces": 20, "max_episode_steps": 12})["max_episode_steps"] == 12
+    for bad in ("0", "2.5", "'20'", "true"):
+        with pytest.raises(ConfigError, match=r"env_kwargs: max_episode_steps=.*; give a positive integer"):
+            load_config(write_config(tmp_path, entry % bad), "vegym/BouncingBall-v0", "ppo")
+
+
 def test_a_retraining_run_again_resumes_the_partial_runs_of_its_config(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
