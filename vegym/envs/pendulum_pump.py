@@ -349,9 +349,11 @@ class PendulumPumpEnv(VegymEnv[PendulumPumpParams]):
     ## Description
     The simple pendulum of the chapter (8.5) with both printed sign errors fixed (PHYSICS.md section 7): a bob of
     mass m on a rod of length L, angle theta from the downward vertical, ``theta'' = -(g/L) sin theta - b
-    theta' / (m L^2) + tau / (m L^2)``, integrated with ``substeps`` semi-implicit Euler steps per control step.
-    The torque is weak (``tau_max = 1 N m`` against ``m g L = 9.81 J``: it could hold the bob only 6 deg out of the
-    vertical), so it must pump energy in over several swings, in phase with the angular velocity, or take it out.
+    theta' / (m L^2) + tau / (m L^2)``, integrated with ``substeps`` semi-implicit Euler steps per control step,
+    each shorter than the pendulum's stable step and than ``max_torque_step`` (parameters that break either are
+    refused, naming ``substeps`` or ``dt``). The torque is weak (``tau_max = 1 N m`` against ``m g L = 9.81 J``: it
+    could hold the bob only 6 deg out of the vertical), so it must pump energy in over several swings, in phase with
+    the angular velocity, or take it out.
     The target amplitude theta* changes at random times; the swing's amplitude is read from its energy,
     ``theta_E = arccos(1 - E / (m g L))`` (pi once the pendulum can go over the top).
 
