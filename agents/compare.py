@@ -21,9 +21,9 @@ from collections.abc import Callable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
-from agents.config import ALGOS, CONFIG_DIR, TrainConfig, load_config, read_yaml, save_resolved
+from agents.basics import EVAL_SEED
+from agents.config import ALGOS, CONFIG_DIR, TrainConfig, load_config, make_kwargs, read_yaml, save_resolved
 from agents.evaluation import (
-    EVAL_SEED,
     EvalResult,
     SeededFactories,
     agent_factories,
@@ -197,7 +197,7 @@ def _learned(agents: dict[str, Path], env_id: str) -> tuple[dict[str, SeededFact
             raise ValueError(f"{path}: trained on {config.env_id}, not {env_id}")
         factories[algo] = seeded
         env_kwargs[algo] = config.env_kwargs
-    distinct = {json.dumps(kw, sort_keys=True) for kw in env_kwargs.values()}
+    distinct = {json.dumps(make_kwargs(env_id, kw), sort_keys=True) for kw in env_kwargs.values()}
     if len(distinct) > 1:
         raise ValueError(f"{env_id}: the learned agents were trained with different env_kwargs: {env_kwargs}")
     return factories, next(iter(env_kwargs.values()), {})

@@ -455,9 +455,15 @@ def _check(c: TrainConfig, where: str) -> None:
     if isinstance(time_limit, bool) or not isinstance(time_limit, int) or time_limit < 1:
         raise ConfigError(f"{where}: env_kwargs: {TIME_LIMIT}={time_limit!r}; give a positive integer")
     try:
-        env_params(c.env_id, {key: value for key, value in c.env_kwargs.items() if key != TIME_LIMIT})
+        params = env_params(c.env_id, {key: value for key, value in c.env_kwargs.items() if key != TIME_LIMIT})
     except (TypeError, ValueError) as exc:
         raise ConfigError(f"{where}: env_kwargs: {exc}") from None
+    planned = _task_class(c.env_id).planned_length_param
+    if TIME_LIMIT in c.env_kwargs and planned is not None and time_limit != getattr(params, planned):
+        raise ConfigError(
+            f"{where}: env_kwargs: {TIME_LIMIT}={time_limit} cuts or outlives the episodes of "
+            f"{planned}={getattr(params, planned)} that {c.env_id} plans; give both the same value"
+        )
 
 
 def _setting(c: TrainConfig, key: str) -> Any:
@@ -563,8 +569,8 @@ def _task_class(env_id: str) -> Any:
 
 TIME_LIMIT = "max_episode_steps"
 """The ``env_kwargs`` key that is ``gymnasium.make``'s time limit, not an env parameter: RL Zoo passes ``env_kwargs``
-to ``gymnasium.make`` as they are, so an entry that changes a planned episode length gives it too (vegym adds it
-where missing, :func:`make_kwargs`)."""
+to ``gymnasium.make`` as they are, so an entry that changes a planned episode length gives it too, the same value
+(checked; vegym adds it where missing, :func:`make_kwargs`)."""
 
 
 def env_params(env_id: str, env_kwargs: Mapping[str, Any]) -> Any:

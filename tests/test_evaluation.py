@@ -125,6 +125,23 @@ def test_agents_trained_with_other_env_kwargs_are_not_compared_together(fake_run
     assert compare._learned({"ppo": runs["ppo"]}, "vegym/Projectile-v0")[1] == {"gravity": 9.0}
 
 
+def test_agents_whose_env_kwargs_make_the_same_env_are_compared_together(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """An entry may give the time limit that vegym adds itself (as RL Zoo needs): the agents play the same env."""
+    env_kwargs = {"ppo": {"episode_bounces": 20}, "sac": {"episode_bounces": 20, "max_episode_steps": 20}}
+    configs = {}
+    for algo, kwargs in env_kwargs.items():
+        run = tmp_path / algo / "seed_0"
+        run.mkdir(parents=True)
+        (run / MODEL_FILE).touch()
+        overrides = {"seed": 0, "env_kwargs": kwargs}
+        configs[run] = load_config(CONFIG_DIR / f"{algo}.yml", "vegym/BouncingBall-v0", overrides=overrides)
+    monkeypatch.setattr(evaluation, "load_learned", lambda path: (object(), configs[Path(path)]))
+    runs = {algo: tmp_path / algo for algo in env_kwargs}
+    assert compare._learned(runs, "vegym/BouncingBall-v0")[1] == env_kwargs["ppo"]
+
+
 def test_an_agent_directory_without_a_trained_run_is_not_a_model(tmp_path: Path) -> None:
     (tmp_path / "Projectile-v0" / "ppo").mkdir(parents=True)
     assert compare.find_models(tmp_path, "vegym/Projectile-v0", ["ppo"]) == {}

@@ -31,7 +31,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 import agents
 import vegym
 from agents import cli, compare, multiseed, training
-from agents.basics import ALGO_NAMES
+from agents.basics import ALGO_NAMES, EVAL_SEED
 from agents.cli import _print_table, build_parser, main
 from agents.config import (
     ALGOS,
@@ -49,7 +49,7 @@ from agents.config import (
     with_overrides,
     zoo_entry,
 )
-from agents.evaluation import EVAL_SEED, agent_factory, evaluate, evaluate_agents, load_learned, short_runs
+from agents.evaluation import agent_factory, evaluate, evaluate_agents, load_learned, short_runs
 from agents.multiseed import SeedOutcome
 from agents.statistics import summarize
 from agents.training import (
@@ -1040,15 +1040,24 @@ def test_a_config_may_give_the_time_limit_in_env_kwargs_as_rl_zoo_needs(tmp_path
     """RL Zoo passes env_kwargs to gymnasium.make as they are, so an entry that changes a planned episode length
     must give ``max_episode_steps`` too for RL Zoo (its episodes were cut at the registered 10 bounces without a
     word); vegym took only env parameters there and refused it (a helper's RL Zoo check). It is the time limit now,
-    kept as given, and checked."""
+    checked: a positive integer, and the planned length where the env plans one (otherwise it would cut the
+    episodes without a word again)."""
     entry = "vegym/BouncingBall-v0:\n  n_timesteps: 64\n  env_kwargs: {episode_bounces: 20, max_episode_steps: %s}\n"
     config = load_config(write_config(tmp_path, entry % "20"), "vegym/BouncingBall-v0", "ppo")
     assert make_kwargs(config.env_id, config.env_kwargs) == {"episode_bounces": 20, "max_episode_steps": 20}
     assert make_env(config, 0, n_envs=1).venv.envs[0].spec.max_episode_steps == 20
-    assert make_kwargs(config.env_id, {"episode_bounces": 20, "max_episode_steps": 12})["max_episode_steps"] == 12
     for bad in ("0", "2.5", "'20'", "true"):
         with pytest.raises(ConfigError, match=r"env_kwargs: max_episode_steps=.*; give a positive integer"):
             load_config(write_config(tmp_path, entry % bad), "vegym/BouncingBall-v0", "ppo")
+    cut = r"env_kwargs: max_episode_steps=12 cuts or outlives the episodes of episode_bounces=20 that .* plans"
+    with pytest.raises(ConfigError, match=cut):
+        load_config(write_config(tmp_path, entry % "12"), "vegym/BouncingBall-v0", "ppo")
+    alone = "vegym/BouncingBall-v0:\n  n_timesteps: 64\n  env_kwargs: {max_episode_steps: 20}\n"
+    with pytest.raises(ConfigError, match=r"max_episode_steps=20 .* episode_bounces=10 "):
+        load_config(write_config(tmp_path, alone), "vegym/BouncingBall-v0", "ppo")
+    projectile = "vegym/Projectile-v0:\n  n_timesteps: 64\n  env_kwargs: {max_episode_steps: 3}\n"
+    config = load_config(write_config(tmp_path, projectile), "vegym/Projectile-v0", "ppo")
+    assert make_kwargs(config.env_id, config.env_kwargs) == {"max_episode_steps": 3}  # no plan: a time limit
 
 
 def test_a_retraining_run_again_resumes_the_partial_runs_of_its_config(

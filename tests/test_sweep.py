@@ -25,9 +25,10 @@ from optuna.trial import TrialState
 import vegym  # noqa: F401
 from agents import sweep as sweep_module
 from agents.analytic import controller_for
+from agents.basics import EVAL_SEED
 from agents.cli import main
 from agents.config import CONFIG_DIR, load_config, load_configs, with_overrides
-from agents.evaluation import EVAL_SEED, RandomAgent
+from agents.evaluation import RandomAgent
 from agents.sweep import (
     SWEEP_EVAL_SEED,
     ReportAndPrune,
