@@ -180,7 +180,7 @@ def test_the_step_writes_the_observation_of_its_state_bit_for_bit_target_changes
         ({"mass": 1e-9}, r"dt=0.05 is outside"),
         ({"target_max": 4.0}, "target_max"),
         ({"length": 0.03, "dt": 4.0, "change_interval_min": 20.0, "final_hold": 4.0}, r"substeps=5 .* \[122, 1000\]"),
-        ({"max_torque": 1e9}, r"substeps=5 is outside .* \[791, 1000\] .* \(torque step 6.325e-05 s"),
+        ({"max_torque": 1e9}, r"substeps=5 is outside .* \[791, 1000\] .* \(torque step 6.325e-05 s.*below 4e\+04 N m"),
         ({"length": 1e-3, "mass": 1e-3, "max_torque": 1e9, "substeps": 1000}, r"dt=0.05 is outside .* torque step"),
     ],
 )
@@ -288,11 +288,14 @@ def test_is_success_is_the_amplitude_error_within_the_tolerance() -> None:
 def test_the_strongest_torque_allowed_keeps_an_undamped_pendulum_finite() -> None:
     """Full torque on an undamped pendulum just inside ``max_torque h^2 / (m L^2) < 4`` (1,000 substeps) spins it
     ever faster, and its observations stay finite and in the box over the planned episode; at 1e8 instead of 4
-    (allowed before the torque step) the angle reached NaN after 4,141 steps."""
+    (allowed before the torque step) the angle reached NaN after 4,141 steps; just above 4 is refused."""
     length, mass, dt, substeps = 1e-3, 1e-3, 0.05, 1000
     max_torque = 3.99 * mass * length**2 / (dt / substeps) ** 2
     env = gym.make(ENV_ID, length=length, mass=mass, damping=0.0, max_torque=max_torque, substeps=substeps)
     assert env.unwrapped.params.step_length < env.unwrapped.params.max_torque_step
+    stronger = 4.01 * mass * length**2 / (dt / substeps) ** 2
+    with pytest.raises(ValueError, match=r"dt=0.05 is outside .* torque step"):
+        gym.make(ENV_ID, length=length, mass=mass, damping=0.0, max_torque=stronger, substeps=substeps)
     env.reset(seed=0)
     for _ in range(800):
         obs, reward, *_ = env.step(np.ones(1, np.float32))

@@ -52,17 +52,18 @@ class PendulumPumpParams(ScheduledParams, Params):
         stable, resolved = self.physics.max_stable_step(), self.max_torque_step
         if self.step_length >= min(stable, resolved):
             if stable <= resolved:  # semi-implicit Euler is unstable at steps of ``stable`` and longer
-                longest, what = stable, "stable step"
+                longest, what, weaker = stable, "stable step", ""
                 why = f"the pendulum of {self.named('length', 'mass', 'gravity', 'damping')}"
             else:
                 longest, what = resolved, "torque step"
                 why = f"max_torque={self.max_torque:g} on {self.named('length', 'mass')}: 2 sqrt(m L^2 / max_torque)"
+                strongest = 4.0 * self.physics.inertia / self.step_length**2
+                weaker = f"; or max_torque below {strongest:.4g} N m for this dt and substeps"
             if self.dt >= 1000 * longest:
-                raise self.above("dt", f"1000 substeps x {longest:.4g} s), the {what} of {why}")
+                raise self.above("dt", f"1000 substeps x {longest:.4g} s), the {what} of {why}{weaker}")
             fewest = math.floor(self.dt / longest) + 1
-            raise invalid(
-                "substeps", self.substeps, f"[{fewest}, 1000] for dt={self.dt} ({what} {longest:.4g} s, for {why})"
-            )
+            allowed = f"[{fewest}, 1000] for dt={self.dt} ({what} {longest:.4g} s, for {why}){weaker}"
+            raise invalid("substeps", self.substeps, allowed)
 
     @property
     def physics(self) -> PendulumParams:
@@ -73,7 +74,8 @@ class PendulumPumpParams(ScheduledParams, Params):
     def max_torque_step(self) -> float:
         """Longest integration step (s) for the torque: ``2 sqrt(m L^2 / max_torque)``, the step ``h`` at which
         ``max_torque h^2 / (m L^2)`` reaches 4 (the bound that ``(g/L) h^2`` has for stability), where the full torque
-        alone turns the hanging pendulum by 2 rad in one step. Longer steps are refused: at ``max_torque h^2 / (m L^2)
+        alone would turn the resting pendulum by 2 rad in one step (one semi-implicit Euler step turns it by 4). Longer
+        steps are refused: at ``max_torque h^2 / (m L^2)
         = 1e8`` the torque spun the angle by 1e17 rad within a control step after 4,141 steps, and its sine to NaN."""
         return 2.0 * math.sqrt(self.physics.inertia / self.max_torque)
 
