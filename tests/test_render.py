@@ -17,6 +17,7 @@ import pytest
 import vegym  # noqa: F401
 from vegym.envs.base import load_object
 from vegym.render import canvas
+from vegym.render import projectile_adjust as projectile_adjust_render
 from vegym.render.bouncing_ball import SHOWN_FLIGHTS
 from vegym.render.canvas import pygame
 from vegym.render.gear_train import MOST_TEETH, TOOTH_PITCH, gear_outline
@@ -876,8 +877,8 @@ def test_projectile_adjust_keeps_the_latest_shots_of_steps_past_the_end_and_coun
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     """Steps past the end without a reset fire more shots: the renderer kept one more each, without bound. It keeps
-    the latest ``canvas.HISTORY`` now, and numbers them and times the flights over all of them."""
-    monkeypatch.setattr(canvas, "HISTORY", 4)
+    the latest ``KEPT_SHOTS`` now, and numbers them and times the flights over all of them."""
+    monkeypatch.setattr(projectile_adjust_render, "KEPT_SHOTS", 4)
     env = gym.make("vegym/ProjectileAdjust-v0", render_mode="rgb_array", max_episode_steps=-1)
     env.reset(seed=0)
     flight_times = []
