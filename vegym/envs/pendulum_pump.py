@@ -74,9 +74,9 @@ class PendulumPumpParams(ScheduledParams, Params):
     def max_torque_step(self) -> float:
         """Longest integration step (s) for the torque: ``2 sqrt(m L^2 / max_torque)``, the step ``h`` at which
         ``max_torque h^2 / (m L^2)`` reaches 4 (the bound that ``(g/L) h^2`` has for stability), where the full torque
-        alone would turn the resting pendulum by 2 rad in one step (one semi-implicit Euler step turns it by 4). Longer
-        steps are refused: at ``max_torque h^2 / (m L^2)
-        = 1e8`` the torque spun the angle by 1e17 rad within a control step after 4,141 steps, and its sine to NaN."""
+        alone would turn the resting pendulum by 2 rad in one step (one semi-implicit Euler step turns it by 4).
+        Longer steps are refused: at ``max_torque h^2 / (m L^2) = 1e8`` the torque spun the angle by 1e17 rad within
+        a control step after 4,141 steps, and its sine to NaN."""
         return 2.0 * math.sqrt(self.physics.inertia / self.max_torque)
 
     @property
