@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from vegym.physics import aircraft, collision, particle, pendulum, projectile, suspension, thread
+from vegym.physics import aircraft, collision, particle, pendulum, projectile, suspension, thread, wheel
 
 
 def test_terrain_of_one_road_at_many_distances() -> None:
@@ -191,3 +191,19 @@ def test_one_command_steps_every_aircraft_and_other_row_counts_raise() -> None:
         np.testing.assert_array_equal(climb, [5.0, 5.0, 5.0])
     with pytest.raises(ValueError, match="command has 2 rows for 3 aircraft"):
         aircraft.step(state, [[1.5, 5.0, 0.01]] * 2, 1.0, params)
+
+
+def test_the_angle_wraps_and_the_range_laws_return_scalars_for_scalars_and_arrays_for_arrays() -> None:
+    """aircraft.wrap returned a 0-d array for a scalar where wheel.wrap_angle returns a numpy scalar, and max_range
+    took scalars only where its twin max_range_elevation takes arrays (session 24's physics review)."""
+    params = projectile.ProjectileParams()
+    for law, args in (
+        (aircraft.wrap, (4.0,)),
+        (wheel.wrap_angle, (4.0,)),
+        (projectile.max_range, (20.0, 1.0, params)),
+        (projectile.max_range_elevation, (20.0, 1.0, params)),
+    ):
+        one = law(*args)
+        assert isinstance(one, np.float64), law
+        many = law(*(np.full(3, a) if isinstance(a, float) else a for a in args))
+        assert isinstance(many, np.ndarray) and many.shape == (3,) and np.all(many == one), law

@@ -77,8 +77,10 @@ class ProjectileEnvParams(Params):
         velocity u of that speed reaches the target, and the air-relative launch velocity ``u - w`` then has a
         speed of at most ``speed_max``; a target reachable at some speed is reachable at every higher one.
         """
-        return projectile.max_range(
-            self.speed_max - self.wind_speed_max, self.launch_height_min - self.radius, self.physics
+        return float(
+            projectile.max_range(
+                self.speed_max - self.wind_speed_max, self.launch_height_min - self.radius, self.physics
+            )
         )
 
     @property

@@ -119,9 +119,10 @@ def _wrap_each(angles: np.ndarray) -> np.ndarray:
 
 
 def wrap(angle: np.ndarray) -> np.ndarray:
-    """Angles (any shape, rad) wrapped to [-pi, pi) by :func:`wrap_angle`."""
-    angle = np.asarray(angle, dtype=np.float64)
-    return _wrap_each(np.ascontiguousarray(angle).reshape(-1)).reshape(angle.shape)
+    """Angles (any shape, rad) wrapped to [-pi, pi) by :func:`wrap_angle` (a numpy scalar for a scalar, as
+    :func:`vegym.physics.wheel.wrap_angle`)."""
+    shape, (angle,) = flat_columns(angle)
+    return _wrap_each(angle).reshape(shape)[()]
 
 
 def _clip_columns(values: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:

@@ -186,13 +186,13 @@ def firing_solution(
     return elevation, azimuth, np.where(reachable, flight_time, np.nan), reachable
 
 
-def max_range(speed: float, height: float, params: ProjectileParams) -> float:
-    """Greatest wind-free horizontal range (m) at ``speed`` from ``height`` above the landing level.
+def max_range(speed: np.ndarray, height: np.ndarray, params: ProjectileParams) -> np.ndarray:
+    """Greatest wind-free horizontal range (m) at ``speed`` (m/s) from ``height`` (m) above the landing level.
 
     Closed form: ``(v / g) sqrt(v^2 + 2 g h)`` at the elevation :func:`max_range_elevation`.
     """
-    g = params.gravity
-    return float(speed / g * np.sqrt(speed * speed + 2.0 * g * height))
+    v, h, g = np.asarray(speed, dtype=np.float64), np.asarray(height, dtype=np.float64), params.gravity
+    return v / g * np.sqrt(v * v + 2.0 * g * h)
 
 
 def max_range_elevation(speed: np.ndarray, height: np.ndarray, params: ProjectileParams) -> np.ndarray:
