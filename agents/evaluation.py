@@ -4,8 +4,8 @@ Every agent has SB3's ``predict(obs, state, episode_start, deterministic)`` and 
 single env: episode ``k`` of an evaluation starts from ``reset(seed=seed + k)``. Per env and agent it reports
 the mean and std of the return, the success rate (``info["is_success"]`` at the episode's last step), the
 normalized score ``(R - R_random) / (R_analytic - R_random)`` (1 matches the analytic controller), the score
-against each stronger reference of the env (:data:`agents.analytic.REFERENCE_AGENTS`) and the task's own control metrics
-(:data:`TASK_METRICS`), averaged over episodes.
+against each stronger reference of the env (:data:`agents.analytic.REFERENCE_AGENTS`) and the task's own control
+metrics (:data:`TASK_METRICS`), averaged over episodes.
 """
 
 from __future__ import annotations

@@ -900,8 +900,8 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         and report reward 0, not terminated, not truncated, and masked-out infos: every ``_name`` mask is the
         same read-only array, False for those rows, whose info values are left over from the discarded step
         (SyncVectorEnv fills them with zeros, and returns an empty info where every sub-env resets, where this one
-        returns every key masked out, its values zeros; read infos through the masks). Every row's action is checked, a
-        resetting row's too (SyncVectorEnv ignores theirs): a NaN or inf anywhere raises ``ValueError``.
+        returns every key masked out, its values zeros; read infos through the masks). Every row's action is
+        checked, a resetting row's too (SyncVectorEnv ignores theirs): a NaN or inf anywhere raises ``ValueError``.
         """
         state = self.state
         if state is None:
