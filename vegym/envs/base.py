@@ -35,6 +35,7 @@ from numba import njit
 
 from vegym import rng
 from vegym.envs.kernel_call import bind_kernel
+from vegym.envs.kernel_split import SPLIT_MIN_ROWS, SplitKernel
 from vegym.params import Params, with_arguments
 
 P = TypeVar("P", bound=Params)
@@ -46,10 +47,12 @@ KernelCall = tuple[Callable[..., Any], tuple[Any, ...]]
 ACTION_TOLERANCE = 1e-6
 """Actions may exceed [-1, 1] by this much (float32 round-off) and are then clipped; more is an error."""
 PARALLEL_MIN_ENVS = 32768
-"""Vector envs with at least this many sub-envs step, observe and restart in chunks of at least half this many
-rows, at most one per CPU core, on threads (the kernels release the GIL); smaller batches run in the calling
-thread, where threads would cost more than they save (handing a chunk to a thread took about 130 us on the
-2-core VM this was measured on, a whole 8,192-env step of the SIMD kernels 0.3-0.6 ms)."""
+"""Vector envs with at least this many sub-envs start, observe and restart in chunks of at least half this many
+rows, at most one per CPU core, on a thread pool (the kernels release the GIL); smaller batches run in the calling
+thread, where a pool's threads would cost more than they save (handing a chunk to a sleeping thread took about
+130 us on the 2-core VM this was measured on, a whole 8,192-env step of the SIMD kernels 0.3-0.6 ms). Steps, the
+hot path, split from ``kernel_split.SPLIT_MIN_ROWS`` rows per core instead, on helper threads that spin between
+steps."""
 
 
 class Task(abc.ABC, Generic[P]):
@@ -752,6 +755,12 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
     episode constants and arrays of constants). With
     ``render_mode="rgb_array"`` each sub-env has the single env's renderer, fed after every step (a snapshot of
     its row: slow, for looking, not for training), and ``render()`` returns their frames.
+
+    With two or more chunks of ``kernel_split.SPLIT_MIN_ROWS`` (4,096) sub-envs and of CPU cores (those the
+    process may run on when the env is made), a step's kernel runs over chunks of rows in the calling thread and
+    daemon helper threads at once, with the same results; the helpers spin for about 0.2 ms after each step and
+    then nap, and ``close()`` or dropping the env stops them. To keep an env to one thread, limit the process's
+    cores (``os.sched_setaffinity``, ``taskset``).
     """
 
     task_cls: ClassVar[type[Task]]
@@ -796,6 +805,8 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         self._every = np.arange(num_envs)
         self._constant_arrays: dict[str, tuple[Any, np.ndarray]] = {}
         self._renderers: list[Any] = []
+        self._split_helpers = min(_core_count(), num_envs // SPLIT_MIN_ROWS) - 1
+        self._split: SplitKernel | None = None
 
     def reset(
         self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None
@@ -916,7 +927,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
                 if name != "obs":
                     value.fill(0)
         else:
-            _in_chunks(n, lambda rows: self.task.step(rows_of(state, rows), a[rows], rows_of(out, rows)))
+            self._step_task(state, a, out)
         active, truncated, self._autoreset = np.empty(n, np.bool_), np.empty(n, np.bool_), np.empty(n, np.bool_)
         max_steps = self.max_episode_steps if self.max_episode_steps is not None else np.iinfo(np.int64).max
         reward, terminated = out["reward"], out["terminated"]
@@ -933,6 +944,37 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         if self.render_mode is not None:
             self._record_renderers(rows, info)
         return out["obs"], reward, terminated, truncated, info
+
+    def _step_task(self, state: State, actions: np.ndarray, out: State) -> None:
+        """The task's step of every sub-env (:meth:`Task.step`): with two or more chunks of ``SPLIT_MIN_ROWS`` rows
+        and of CPU cores, its kernel runs over chunks of rows in this thread and helper threads at once
+        (:class:`kernel_split.SplitKernel`), where it can be split."""
+        if self._split_helpers < 1:
+            self.task.step(state, actions, out)
+            return
+        kernel, args = self.task.step_call(state, actions, out)
+        split = self._split
+        if split is None or not split.fits(kernel, args):
+            if split is not None:
+                split.close()
+            rows = {id(array) for array in (*state.values(), *out.values(), actions)}
+            try:
+                batch = [id(arg) in rows for arg in args]
+                split = SplitKernel(kernel, args, batch, self._split_helpers)
+            except ValueError:  # not splittable: this env steps in one thread from now on
+                self._split_helpers, split = 0, None
+            self._split = split
+        if kernel(*args) if split is None else split(args):
+            self.task.after_step(state, out)
+
+    def close_extras(self, **kwargs: Any) -> None:
+        """Stop the step's helper threads."""
+        if self._split is not None:
+            self._split.close()
+            self._split = None
+
+    def __getstate__(self) -> dict[str, Any]:
+        return {**self.__dict__, "_split": None}
 
     def render(self) -> tuple[np.ndarray, ...] | None:
         """The frame of every sub-env (``render_mode="rgb_array"``): a tuple of uint8 (height, width, 3) arrays, as

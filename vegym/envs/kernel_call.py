@@ -148,25 +148,34 @@ def _packable(arg: Any) -> bool:
     return isinstance(arg, bool | int | float | np.bool_ | np.integer | np.floating)
 
 
+def packed_layout(kernel: Callable[..., Any], args: tuple[Any, ...]) -> tuple[str, tuple[Any, ...]] | None:
+    """The shim's layout string for ``kernel(*args)`` and the scalars among ``args`` (the table holds the rest), or
+    None where the shim cannot make the call: ``kernel`` is not a numba kernel cached on disk, or an argument is not
+    a C-contiguous array, a number or a tuple of numbers."""
+    name = _kernel_name(kernel) if isinstance(kernel, Dispatcher) else None
+    if name is None or not all(_packable(arg) for arg in args):
+        return None
+    scalars, fields = [], []
+    for arg in args:
+        if isinstance(arg, np.ndarray):
+            fields.append(f"{arg.dtype.name}:{arg.ndim}:{'w' if arg.flags.writeable else 'r'}")
+        else:
+            scalars.append(arg)
+            fields.append("s")
+    return "|".join([name, *fields]), tuple(scalars)
+
+
 def bind_kernel(kernel: Callable[..., Any], args: tuple[Any, ...]) -> Callable[[], Any]:
     """``kernel(*args)`` as a function of no arguments, for arguments that stay the same objects with the same
     contents' types and shapes (a single env's own arrays): a numba kernel (a dispatcher) whose arguments are
     C-contiguous arrays, numbers and tuples of numbers is called through the packed shim (first use of a kernel
     layout: compiled, then cached), other calls as they are."""
-    name = _kernel_name(kernel) if isinstance(kernel, Dispatcher) else None
-    if name is None or not all(_packable(arg) for arg in args):
+    packed = packed_layout(kernel, args)
+    if packed is None:
         return functools.partial(kernel, *args)
-    addresses: list[int] = []
-    scalars, fields = [], []
-    for arg in args:
-        if isinstance(arg, np.ndarray):
-            addresses += [arg.ctypes.data, *arg.shape]
-            fields.append(f"{arg.dtype.name}:{arg.ndim}:{'w' if arg.flags.writeable else 'r'}")
-        else:
-            scalars.append(arg)
-            fields.append("s")
-    layout = "|".join([name, *fields])
-    table, packed_scalars = np.array(addresses, np.intp), tuple(scalars)
+    layout, packed_scalars = packed
+    addresses = [number for arg in args if isinstance(arg, np.ndarray) for number in (arg.ctypes.data, *arg.shape)]
+    table = np.array(addresses, np.intp)
     signature = (_call_packed.typeof_pyval(table), _call_packed.typeof_pyval(packed_scalars), types.literal(layout))
     if signature not in _call_packed.overloads:
         with _compile_lock():

@@ -1,0 +1,176 @@
+"""A large vector env's step kernel split over threads: the same results as the kernel in one thread, errors
+raised, helper threads stopped, and copies and forked children that step as the original does."""
+
+import copy
+import gc
+import multiprocessing
+import pickle
+import threading
+
+import gymnasium as gym
+import numpy as np
+import pytest
+from numba import njit
+
+import vegym  # noqa: F401  (registers the envs)
+from vegym.envs.kernel_split import SPLIT_MIN_ROWS, SplitKernel
+
+ENV_IDS = sorted(env_id for env_id in gym.registry if env_id.startswith("vegym/"))
+SPLIT_ENVS = 2 * SPLIT_MIN_ROWS + 3
+"""Enough sub-envs for two chunks, an odd number so that the chunks differ in size."""
+
+
+def _helpers() -> list[threading.Thread]:
+    return [thread for thread in threading.enumerate() if thread.name.startswith("vegym-helper")]
+
+
+def _vector_env(env_id: str, helpers: int) -> gym.vector.VectorEnv:
+    """A vector env of ``SPLIT_ENVS`` sub-envs whose steps use ``helpers`` helper threads (0: one thread), whatever
+    the machine's core count."""
+    env = gym.make_vec(env_id, num_envs=SPLIT_ENVS, vectorization_mode="vector_entry_point")
+    env.unwrapped._split_helpers = helpers
+    return env
+
+
+def _rollout(env: gym.vector.VectorEnv, steps: int, seed: int = 3) -> list[np.ndarray]:
+    """The observations, rewards, ends and reward terms of a seeded rollout of random actions."""
+    obs, _ = env.reset(seed=seed)
+    actions = np.random.default_rng(seed).uniform(-1, 1, (steps, *env.action_space.shape)).astype(np.float32)
+    outputs = [obs]
+    for action in actions:
+        obs, reward, terminated, truncated, info = env.step(action)
+        terms = info.get("reward_terms", {})
+        outputs += [obs, reward, terminated, truncated, *(np.asarray(terms[name]) for name in sorted(terms))]
+    return outputs
+
+
+def _assert_same(first: list[np.ndarray], second: list[np.ndarray]) -> None:
+    assert len(first) == len(second)
+    for a, b in zip(first, second, strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_a_split_step_gives_the_one_thread_step_bit_for_bit(env_id: str) -> None:
+    split, single = _vector_env(env_id, 1), _vector_env(env_id, 0)
+    split_outputs, single_outputs = _rollout(split, 40), _rollout(single, 40)
+    assert isinstance(split.unwrapped._split, SplitKernel)
+    assert single.unwrapped._split is None
+    _assert_same(split_outputs, single_outputs)
+    split.close()
+    single.close()
+
+
+def test_closing_the_env_stops_its_helpers_and_dropping_it_does_too() -> None:
+    before = len(_helpers())
+    env = _vector_env("vegym/Aircraft-v0", 1)
+    _rollout(env, 3)
+    assert len(_helpers()) == before + 1
+    env.close()
+    assert len(_helpers()) == before
+    env = _vector_env("vegym/Aircraft-v0", 1)
+    _rollout(env, 3)
+    assert len(_helpers()) == before + 1
+    del env
+    gc.collect()
+    assert len(_helpers()) == before
+
+
+def test_a_deep_copy_and_an_unpickled_copy_of_a_split_env_step_as_it_does() -> None:
+    env = _vector_env("vegym/SteerableWheel-v0", 1)
+    _rollout(env, 5)
+    copies = [copy.deepcopy(env), pickle.loads(pickle.dumps(env))]
+    actions = np.random.default_rng(1).uniform(-1, 1, (6, *env.action_space.shape)).astype(np.float32)
+    results = [[other.step(action)[:4] for action in actions] for other in (env, *copies)]
+    for other in results[1:]:
+        for steps, reference in zip(other, results[0], strict=True):
+            for a, b in zip(steps, reference, strict=True):
+                np.testing.assert_array_equal(a, b)
+    for other in (env, *copies):
+        other.close()
+
+
+def _child_rollout(env: gym.vector.VectorEnv, queue: multiprocessing.Queue) -> None:
+    queue.put(_rollout(env, 8, seed=9))
+
+
+def test_a_forked_child_steps_a_split_env_with_helpers_of_its_own() -> None:
+    if "fork" not in multiprocessing.get_all_start_methods():
+        pytest.skip("no fork on this platform")
+    env = _vector_env("vegym/Projectile-v0", 1)
+    _rollout(env, 3)
+    context = multiprocessing.get_context("fork")
+    queue = context.Queue()
+    child = context.Process(target=_child_rollout, args=(env, queue))
+    child.start()
+    outputs = queue.get(timeout=120)
+    child.join(timeout=60)
+    assert child.exitcode == 0
+    _assert_same(outputs, _rollout(env, 8, seed=9))
+    env.close()
+
+
+@njit(cache=True, nogil=True)
+def _divide(numerators: np.ndarray, denominators: np.ndarray, scale: float, out: np.ndarray) -> bool:
+    """``out = scale * numerators // denominators`` (int64, ZeroDivisionError on a zero), true where any is odd."""
+    odd = False
+    for i in range(len(out)):
+        out[i] = scale * numerators[i] // denominators[i]
+        odd |= out[i] % 2 == 1
+    return odd
+
+
+def _divide_arguments(n: int = 10_001) -> tuple:
+    rng = np.random.default_rng(0)
+    return rng.integers(0, 1000, n), rng.integers(1, 9, n), 2.0, np.zeros(n)
+
+
+@pytest.mark.parametrize("helpers", [1, 3])
+def test_a_split_kernel_returns_and_writes_what_the_kernel_does(helpers: int) -> None:
+    args, reference = _divide_arguments(), _divide_arguments()
+    split = SplitKernel(_divide, args, [True, True, False, True], helpers)
+    for odd_row in (None, -1, 0):  # no odd output, one in the last chunk only, one in the first only
+        numerators = 2 * np.random.default_rng(7).integers(0, 1000, len(args[0]))
+        denominators = np.ones(len(args[0]), np.int64)
+        if odd_row is not None:
+            numerators[odd_row], denominators[odd_row] = 1, 2
+        for arrays in (args, reference):
+            arrays[0][:], arrays[1][:] = numerators, denominators
+        assert split.fits(_divide, args)
+        assert split(args) == _divide(*reference) == (odd_row is not None)
+        np.testing.assert_array_equal(args[3], reference[3])
+    split.close()
+    args[3][:] = 0.0
+    assert split(args) == _divide(*reference)  # closed: every chunk in the calling thread
+    np.testing.assert_array_equal(args[3], reference[3])
+
+
+@pytest.mark.parametrize("zero_at", [0, -1])
+def test_a_kernel_error_in_any_chunk_is_raised_and_stops_the_helpers(zero_at: int) -> None:
+    before = len(_helpers())
+    args = _divide_arguments()
+    args[1][zero_at] = 0
+    split = SplitKernel(_divide, args, [True, True, False, True], 1)
+    assert len(_helpers()) == before + 1
+    with pytest.raises(ZeroDivisionError):
+        split(args)
+    assert len(_helpers()) == before
+
+
+def test_calls_of_other_types_or_scalars_do_not_fit_the_split() -> None:
+    args = _divide_arguments()
+    split = SplitKernel(_divide, args, [True, True, False, True], 1)
+    assert split.fits(_divide, args)
+    assert not split.fits(_divide, (args[0].astype(np.int32), *args[1:]))
+    assert not split.fits(_divide, (*args[:2], 3.0, args[3]))
+    assert not split.fits(_divide, (args[0][::2], *args[1:]))
+    split.close()
+
+
+def test_a_kernel_that_is_not_cached_on_disk_cannot_be_split() -> None:
+    @njit
+    def local(values: np.ndarray) -> None:
+        values += 1.0
+
+    with pytest.raises(ValueError, match="cannot be split"):
+        SplitKernel(local, (np.zeros(10),), [True], 1)
