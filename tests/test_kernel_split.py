@@ -13,6 +13,7 @@ import pytest
 from numba import njit
 
 import vegym  # noqa: F401  (registers the envs)
+from vegym.envs import kernel_split
 from vegym.envs.kernel_split import SPLIT_MIN_ROWS, SplitKernel
 
 ENV_IDS = sorted(env_id for env_id in gym.registry if env_id.startswith("vegym/"))
@@ -174,3 +175,15 @@ def test_a_kernel_that_is_not_cached_on_disk_cannot_be_split() -> None:
 
     with pytest.raises(ValueError, match="cannot be split"):
         SplitKernel(local, (np.zeros(10),), [True], 1)
+
+
+def test_job_numbers_wrap_around_without_stopping_the_helpers() -> None:
+    args, reference = _divide_arguments(), _divide_arguments()
+    split = SplitKernel(_divide, args, [True, True, False, True], 1)
+    split.control[kernel_split._TICKET] = kernel_split._JOB_MASK << 32 | split.chunks  # the last job number, done
+    for _ in range(3):
+        assert split(args) == _divide(*reference)
+        np.testing.assert_array_equal(args[3], reference[3])
+        assert split.control[kernel_split._TICKET] >= 0
+    assert len(_helpers()) >= 1
+    split.close()

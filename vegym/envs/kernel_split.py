@@ -53,6 +53,8 @@ _TICKET, _FINISHED, _RESULT, _FAILED = (8 * k for k in range(4))
 next chunk of the current job to take (-1 stops the helpers); how many of its chunks are finished; whether a
 chunk's kernel returned true; whether a helper's kernel raised."""
 _CHUNK_MASK = (1 << 32) - 1
+_JOB_MASK = (1 << 31) - 1
+"""Job numbers wrap around at 2**31, keeping tickets positive."""
 _X86 = platform.machine().lower() in ("x86_64", "amd64", "i386", "i686", "x86")
 
 
@@ -218,7 +220,7 @@ def generated(control, table, args, chunks, layout, batch):
     {"; ".join(writes)}
     control[{_FINISHED}] = 0
     control[{_RESULT}] = 0
-    _store_release(control, {_TICKET}, ((_load_acquire(control, {_TICKET}) >> 32) + 1) << 32)
+    _store_release(control, {_TICKET}, (((_load_acquire(control, {_TICKET}) >> 32) + 1) & {_JOB_MASK}) << 32)
     while True:
         ticket = _load_acquire(control, {_TICKET})
         chunk = ticket & {_CHUNK_MASK}
@@ -259,21 +261,15 @@ def _helper_side_impl(table, scalars, chunk, chunks, layout, batch):  # noqa: AN
         array = array if access == "w" else f"_read_only({array})"
         arrays.append(f"{array}[lo:hi]" if split else array)
         position += 1 + ndim
-    first = next(position for position, (_, _, split) in enumerate(fields) if split)
-    row_count = sum(1 + ndim for _, ndim, _ in fields[:first] if ndim) + 1
+    first = next(k for k, (_, _, split) in enumerate(fields) if split)
+    rows_at = sum(1 + ndim for _, ndim, _ in fields[:first] if ndim) + 1  # the first batch array's row count
     source = f"""
 def generated(table, scalars, chunk, chunks, layout, batch):
-    n = table[{row_count}]
+    n = table[{rows_at}]
     {_BOUNDS}
     return _truth(kernel({", ".join(arrays)}))
 """
-    return _compile(
-        source,
-        kernel,
-        _pointer=kernel_call._pointer,
-        _read_only=kernel_call._read_only,
-        **names,  # noqa: SLF001
-    )
+    return _compile(source, kernel, _pointer=kernel_call._pointer, _read_only=kernel_call._read_only, **names)
 
 
 @njit(cache=True, nogil=True)
@@ -321,7 +317,7 @@ def _compiled(dispatcher: Any, signature: tuple[Any, ...]) -> Callable[..., Any]
     """The entry point of ``dispatcher`` compiled for ``signature`` (cached on disk), or None where numba's cache
     gave code saved for another literal layout (see :func:`kernel_call.bind_kernel`)."""
     if signature not in dispatcher.overloads:
-        with kernel_call._compile_lock():  # noqa: SLF001
+        with kernel_call._compile_lock():
             dispatcher.compile(signature)
     compiled = dispatcher.overloads.get(signature)
     return None if compiled is None else compiled.entry_point
