@@ -578,10 +578,10 @@ def test_threaded_chunks_step_exactly_as_one_chunk(env_id: str, monkeypatch: pyt
 
     one_chunk = run()
     monkeypatch.setattr(base, "PARALLEL_MIN_ENVS", 8)
-    monkeypatch.setattr(base, "_core_count", lambda: 3)
+    monkeypatch.setattr(base, "_thread_count", lambda: 3)
     assert_same(one_chunk, run())
     monkeypatch.setattr(base, "PARALLEL_MIN_ENVS", 2)  # chunks of a single row
-    monkeypatch.setattr(base, "_core_count", lambda: 64)
+    monkeypatch.setattr(base, "_thread_count", lambda: 64)
     assert_same(one_chunk, run())
 
 
@@ -783,7 +783,7 @@ def test_vector_steps_reuse_heap_memory_instead_of_faulting_in_fresh_pages() -> 
 def test_a_forked_child_steps_a_threaded_vector_env(monkeypatch: pytest.MonkeyPatch) -> None:
     """The thread pool does not survive a fork; the child must start its own instead of waiting forever."""
     monkeypatch.setattr(base, "PARALLEL_MIN_ENVS", 8)
-    monkeypatch.setattr(base, "_core_count", lambda: 2)
+    monkeypatch.setattr(base, "_thread_count", lambda: 2)
     vec = gym.make_vec("vegym/GearTrain-v0", num_envs=64, vectorization_mode="vector_entry_point")
     vec.reset(seed=0)
     actions = np.zeros((64, 1), np.float32)

@@ -2,10 +2,13 @@
 raised, helper threads stopped, and copies and forked children that step as the original does."""
 
 import copy
+import functools
 import gc
 import multiprocessing
+import os
 import pickle
 import threading
+import time
 
 import gymnasium as gym
 import numpy as np
@@ -158,14 +161,110 @@ def test_a_kernel_error_in_any_chunk_is_raised_and_stops_the_helpers(zero_at: in
     assert len(_helpers()) == before
 
 
+@pytest.mark.skipif((os.cpu_count() or 1) < 2, reason="a helper runs beside the calling thread on two cores only")
+def test_a_helpers_kernel_error_is_raised_by_the_calling_thread() -> None:
+    """Which thread takes the last chunk is a race; calls right after a warm-up, while the helper spins, let it
+    take that chunk often enough for a few tries to see one."""
+    for _ in range(40):
+        good, bad = _divide_arguments(), _divide_arguments()
+        bad[1][-1] = 0
+        split = SplitKernel(_divide, good, [True, True, False, True], 1)
+        split(good)
+        with pytest.raises(ZeroDivisionError) as raised:
+            split(bad)
+        if split.errors:
+            assert raised.value is split.errors[0]
+            return
+    pytest.fail("no helper took the last chunk in 40 tries")
+
+
+def test_closing_during_calls_from_another_thread_lets_them_finish_right() -> None:
+    before = len(_helpers())
+    args, reference = _divide_arguments(), _divide_arguments()
+    expected = _divide(*reference)
+    split = SplitKernel(_divide, args, [True, True, False, True], 1)
+    results: list[bool] = []
+
+    def calls() -> None:
+        for _ in range(300):
+            args[3][:] = -1.0
+            results.append(split(args) == expected and np.array_equal(args[3], reference[3]))
+
+    caller = threading.Thread(target=calls)
+    caller.start()
+    time.sleep(0.01)
+    split.close()
+    caller.join(timeout=60)
+    assert not caller.is_alive()
+    assert len(results) == 300 and all(results)
+    assert len(_helpers()) == before
+
+
+def test_a_helper_thread_that_cannot_start_leaves_no_thread_behind(monkeypatch: pytest.MonkeyPatch) -> None:
+    before = len(_helpers())
+    started = []
+    start = threading.Thread.start
+
+    def start_once(thread: threading.Thread) -> None:
+        if started:
+            raise RuntimeError("can't start new thread")
+        started.append(thread)
+        start(thread)
+
+    monkeypatch.setattr(threading.Thread, "start", start_once)
+    with pytest.raises(ValueError, match="can't start new thread"):
+        SplitKernel(_divide, _divide_arguments(), [True, True, False, True], 2)
+    monkeypatch.undo()
+    assert len(_helpers()) == before
+
+
+def test_an_env_steps_in_one_thread_after_close_and_an_unpickled_copy_counts_its_own_threads(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    before = len(_helpers())
+    env = _vector_env("vegym/Aircraft-v0", 1)
+    _rollout(env, 2)
+    env.close()
+    env.step(env.action_space.sample())
+    assert env.unwrapped._split is None and len(_helpers()) == before
+    fresh = _vector_env("vegym/Aircraft-v0", 1)
+    monkeypatch.setenv("VEGYM_NUM_THREADS", "1")
+    assert pickle.loads(pickle.dumps(fresh)).unwrapped._split_helpers == 0
+    monkeypatch.setenv("VEGYM_NUM_THREADS", "2")
+    assert pickle.loads(pickle.dumps(fresh)).unwrapped._split_helpers == 1
+
+
+def test_vegym_num_threads_sets_the_helpers_and_a_bad_value_is_refused(monkeypatch: pytest.MonkeyPatch) -> None:
+    make = functools.partial(gym.make_vec, "vegym/Aircraft-v0", vectorization_mode="vector_entry_point")
+    monkeypatch.setenv("VEGYM_NUM_THREADS", "1")
+    assert make(num_envs=4 * SPLIT_MIN_ROWS).unwrapped._split_helpers == 0
+    monkeypatch.setenv("VEGYM_NUM_THREADS", "3")
+    assert make(num_envs=4 * SPLIT_MIN_ROWS).unwrapped._split_helpers == 2
+    assert make(num_envs=2 * SPLIT_MIN_ROWS - 1).unwrapped._split_helpers == 0
+    for bad in ("0", "two", "-1", ""):
+        monkeypatch.setenv("VEGYM_NUM_THREADS", bad)
+        with pytest.raises(ValueError, match="VEGYM_NUM_THREADS"):
+            make(num_envs=4)
+
+
 def test_calls_of_other_types_or_scalars_do_not_fit_the_split() -> None:
     args = _divide_arguments()
     split = SplitKernel(_divide, args, [True, True, False, True], 1)
+    assert split.control.ctypes.data % 64 == 0  # the counters' cache lines are their own
     assert split.fits(_divide, args)
     assert not split.fits(_divide, (args[0].astype(np.int32), *args[1:]))
     assert not split.fits(_divide, (*args[:2], 3.0, args[3]))
     assert not split.fits(_divide, (args[0][::2], *args[1:]))
+    zero = SplitKernel(_divide, (*args[:2], 0.0, args[3]), [True, True, False, True], 1)
+    assert not zero.fits(_divide, (*args[:2], -0.0, args[3]))  # equal, but not the same number
     split.close()
+    zero.close()
+
+
+def test_a_row_array_passed_whole_cannot_be_split() -> None:
+    """Every chunk would write all of it at once: an argument as long as the split ones must be split too."""
+    with pytest.raises(ValueError, match="as many rows"):
+        SplitKernel(_divide, _divide_arguments(), [True, False, False, True], 1)
 
 
 def test_a_kernel_that_is_not_cached_on_disk_cannot_be_split() -> None:

@@ -694,8 +694,26 @@ def _recycle_step_memory(nbytes: int) -> None:
     np.empty(min(nbytes, MALLOC_MMAP_THRESHOLD_MAX), np.uint8)  # freed at once
 
 
-def _core_count() -> int:
-    return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+THREADS_VARIABLE = "VEGYM_NUM_THREADS"
+"""Environment variable: the most threads a vector env's step, reset or observation may use (1: the calling thread
+only); unset, the CPU cores this process may run on."""
+
+
+def _thread_count() -> int:
+    """Threads a vector env may use: ``VEGYM_NUM_THREADS`` where set (``ValueError`` unless a positive integer),
+    else the CPU cores this process may run on."""
+    value = os.environ.get(THREADS_VARIABLE)
+    if value is None:
+        return len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count() or 1
+    if not value.strip().isdigit() or int(value) < 1:
+        raise ValueError(f"{THREADS_VARIABLE}={value!r} is outside the allowed range: integers in [1, inf)")
+    return int(value)
+
+
+def _split_helpers(num_envs: int) -> int:
+    """Helper threads for a vector step of ``num_envs`` sub-envs: one per chunk of ``SPLIT_MIN_ROWS`` rows beyond
+    the calling thread's, within :func:`_thread_count`."""
+    return max(0, min(_thread_count(), num_envs // SPLIT_MIN_ROWS) - 1)
 
 
 _pool: ThreadPoolExecutor | None = None
@@ -715,12 +733,12 @@ def _in_chunks(n: int, run: Callable[[slice], None]) -> None:
     """``run(rows)`` over row slices that cover ``range(n)``: for large ``n`` one chunk of at least
     ``PARALLEL_MIN_ENVS // 2`` rows per CPU core, on threads. Returns once every chunk has finished."""
     global _pool
-    chunks = min(_core_count(), n // (PARALLEL_MIN_ENVS // 2)) if n >= PARALLEL_MIN_ENVS else 1
+    chunks = min(_thread_count(), n // (PARALLEL_MIN_ENVS // 2)) if n >= PARALLEL_MIN_ENVS else 1
     if chunks <= 1:
         run(slice(0, n))
         return
     if _pool is None:
-        _pool = ThreadPoolExecutor(max_workers=_core_count(), thread_name_prefix="vegym")
+        _pool = ThreadPoolExecutor(max_workers=_thread_count(), thread_name_prefix="vegym")
     bounds = [n * k // chunks for k in range(chunks + 1)]
     futures = [_pool.submit(run, slice(bounds[k], bounds[k + 1])) for k in range(1, chunks)]
     try:
@@ -756,11 +774,11 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
     ``render_mode="rgb_array"`` each sub-env has the single env's renderer, fed after every step (a snapshot of
     its row: slow, for looking, not for training), and ``render()`` returns their frames.
 
-    With two or more chunks of ``kernel_split.SPLIT_MIN_ROWS`` (4,096) sub-envs and of CPU cores (those the
-    process may run on when the env is made), a step's kernel runs over chunks of rows in the calling thread and
-    daemon helper threads at once, with the same results; the helpers spin for about 0.2 ms after each step and
-    then nap, and ``close()`` or dropping the env stops them. To keep an env to one thread, limit the process's
-    cores (``os.sched_setaffinity``, ``taskset``).
+    With two or more chunks of ``kernel_split.SPLIT_MIN_ROWS`` (4,096) sub-envs and of threads (the CPU cores
+    this process may run on, or ``VEGYM_NUM_THREADS``, read when the env is made), a step's kernel runs over chunks
+    of rows in the calling thread and daemon helper threads at once, with the same results; the helpers spin for
+    about 0.2 ms after each step and then nap, and ``close()`` or dropping the env stops them.
+    ``VEGYM_NUM_THREADS=1`` keeps every vector env to the calling thread.
     """
 
     task_cls: ClassVar[type[Task]]
@@ -805,7 +823,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         self._every = np.arange(num_envs)
         self._constant_arrays: dict[str, tuple[Any, np.ndarray]] = {}
         self._renderers: list[Any] = []
-        self._split_helpers = min(_core_count(), num_envs // SPLIT_MIN_ROWS) - 1
+        self._split_helpers = _split_helpers(num_envs)
         self._split: SplitKernel | None = None
 
     def reset(
@@ -947,8 +965,9 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
 
     def _step_task(self, state: State, actions: np.ndarray, out: State) -> None:
         """The task's step of every sub-env (:meth:`Task.step`): with two or more chunks of ``SPLIT_MIN_ROWS`` rows
-        and of CPU cores, its kernel runs over chunks of rows in this thread and helper threads at once
-        (:class:`kernel_split.SplitKernel`), where it can be split."""
+        and of threads (:func:`_split_helpers`), its kernel runs over chunks of rows in this thread and helper
+        threads at once (:class:`kernel_split.SplitKernel`), where it can be split: its arguments that are the
+        arrays of ``state``, ``out`` and ``actions`` themselves are split by rows, the others passed whole."""
         if self._split_helpers < 1:
             self.task.step(state, actions, out)
             return
@@ -968,13 +987,18 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             self.task.after_step(state, out)
 
     def close_extras(self, **kwargs: Any) -> None:
-        """Stop the step's helper threads."""
+        """Stop the step's helper threads, for good: steps after ``close()`` run in the calling thread."""
         if self._split is not None:
             self._split.close()
-            self._split = None
+        self._split, self._split_helpers = None, 0
 
     def __getstate__(self) -> dict[str, Any]:
         return {**self.__dict__, "_split": None}
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        self.__dict__.update(state)
+        if not self.closed:  # this machine's threads, not the original's
+            self._split_helpers = _split_helpers(self.num_envs)
 
     def render(self) -> tuple[np.ndarray, ...] | None:
         """The frame of every sub-env (``render_mode="rgb_array"``): a tuple of uint8 (height, width, 3) arrays, as

@@ -3,12 +3,12 @@
 The calling thread writes the arrays' addresses and shapes into a table, posts a job, and then takes chunks
 itself, one at a time, while the helpers take the others; it returns when every chunk is done. Chunks are taken
 by an atomic compare-and-swap on one counter that also names the job, so a chunk runs once, and a helper that is
-late, asleep, descheduled or missing (as in a forked child) only leaves more chunks to the caller: results never
-depend on the helpers. A helper is a compiled loop that never takes the GIL. Handing work to a sleeping thread
-took 60-130 us on the 2-core VM this was measured on, about half of an 8,192-env step, so a helper spins
-between jobs, for ``SPIN_ROUNDS`` rounds (about 0.2 ms), then naps in ``usleep`` calls that double from
-``MIN_NAP_US`` to ``MAX_NAP_US``, which hand its core back. Splitting needs POSIX ``usleep`` and numba's type
-fingerprints; without them kernels run unsplit.
+late, napping or stopped only leaves more chunks to the caller: results never depend on the helpers (a helper
+that has taken a chunk is waited for, and one descheduled then delays the step). A helper is a compiled loop that
+never takes the GIL. Handing work to a sleeping thread took 60-130 us on the 2-core VM this was measured on, about
+half of an 8,192-env step, so a helper spins between jobs, for ``SPIN_ROUNDS`` rounds (about 0.2 ms here), then
+naps in ``usleep`` calls that double from ``MIN_NAP_US`` to ``MAX_NAP_US``, which hand its core back. Splitting
+needs POSIX ``usleep`` and numba's type fingerprints; without them kernels run unsplit.
 """
 
 from __future__ import annotations
@@ -44,17 +44,20 @@ SPLIT_MIN_ROWS = 4096
 chunks, one per thread, where that is two or more. (With fewer rows a step is mostly Python, which a spinning
 helper slows; and more chunks than threads were slower, each chunk costing a few microseconds.)"""
 SPIN_ROUNDS = 8192
-"""Idle rounds (each an x86 ``pause``, about 26 ns here) a helper spins through before it naps."""
-MIN_NAP_US, MAX_NAP_US = 50, 4000
-"""A napping helper's first and longest ``usleep`` (us)."""
+"""Idle rounds a helper spins through before it naps, and rounds the calling thread waits for a helper's chunk
+before it naps between looks: each an x86 ``pause`` (about 26 ns here; 10-140 cycles across x86 generations), a
+bare read elsewhere (so helpers nap sooner)."""
+MIN_NAP_US, MAX_NAP_US = 50, 10_000
+"""A napping helper's first and longest ``usleep`` (us); the longest also bounds how long stopping it takes."""
 
-_TICKET, _FINISHED, _RESULT, _FAILED = (8 * k for k in range(4))
-"""Slots of the control array (int64), each in its own 64-byte cache line: the ticket ``job << 32 | chunk``, the
-next chunk of the current job to take (-1 stops the helpers); how many of its chunks are finished; whether a
-chunk's kernel returned true; whether a helper's kernel raised."""
+_TICKET, _FINISHED, _RESULT, _FAILED, _STOP = (8 * k for k in range(5))
+"""Slots of the control array (int64), each in a 64-byte cache line of its own: the ticket ``job << 32 | chunk``,
+the next chunk of the current job to take; how many of its chunks are finished; whether a chunk's kernel returned
+true; whether a helper's kernel raised; whether the helpers are to stop (after the chunk they hold)."""
+_SLOTS = 5 * 8
 _CHUNK_MASK = (1 << 32) - 1
 _JOB_MASK = (1 << 31) - 1
-"""Job numbers wrap around at 2**31, keeping tickets positive."""
+"""Job numbers wrap around at 2**31."""
 _X86 = platform.machine().lower() in ("x86_64", "amd64", "i386", "i686", "x86")
 
 
@@ -165,7 +168,14 @@ def _truth_impl(value):  # noqa: ANN001, ANN202
 
 
 def _caller_side(
-    control: np.ndarray, table: np.ndarray, args: tuple[Any, ...], chunks: int, layout: str, batch: str
+    control: np.ndarray,
+    table: np.ndarray,
+    args: tuple[Any, ...],
+    chunks: int,
+    spin_rounds: int,
+    naps: tuple[int, int, int],
+    layout: str,
+    batch: str,
 ) -> tuple[bool, bool]:
     """Numba-only: the calling thread's side of one split call (see the overload)."""
     raise NotImplementedError("only callable inside numba-compiled code")
@@ -199,10 +209,11 @@ _BOUNDS = "lo, hi = n * chunk // chunks, n * (chunk + 1) // chunks"
 
 
 @overload(_caller_side)
-def _caller_side_impl(control, table, args, chunks, layout, batch):  # noqa: ANN001, ANN202
-    """Write the arrays' addresses and shapes into ``table`` (row ``[address, *shape]`` per array), post a job of
-    ``chunks`` chunks, take chunks until none is left, then wait for the helpers' chunks. Returns whether a
-    chunk's kernel returned true and whether a helper's kernel raised."""
+def _caller_side_impl(control, table, args, chunks, spin_rounds, naps, layout, batch):  # noqa: ANN001, ANN202
+    """Write the arrays' addresses and shapes into ``table`` (``[address, *shape]`` per array), post a job of
+    ``chunks`` chunks, take chunks until none is left, then wait for the helpers' chunks: ``spin_rounds`` rounds,
+    then naps of ``naps[1]`` us (``usleep`` at address ``naps[0]``) between looks. Returns whether a chunk's
+    kernel returned true and whether a helper's kernel raised."""
     if not (isinstance(layout, types.StringLiteral) and isinstance(batch, types.StringLiteral)):
         return None
     kernel, fields = _fields(layout, batch)
@@ -215,7 +226,7 @@ def _caller_side_impl(control, table, args, chunks, layout, batch):  # noqa: ANN
     chunk_args = ", ".join(f"args[{k}][lo:hi]" if split else f"args[{k}]" for k, (_, _, split) in enumerate(fields))
     first = next(k for k, (_, _, split) in enumerate(fields) if split)
     source = f"""
-def generated(control, table, args, chunks, layout, batch):
+def generated(control, table, args, chunks, spin_rounds, naps, layout, batch):
     n = args[{first}].shape[0]
     {"; ".join(writes)}
     control[{_FINISHED}] = 0
@@ -230,15 +241,21 @@ def generated(control, table, args, chunks, layout, batch):
             {_BOUNDS}
             _fetch_or(control, {_RESULT}, _truth(kernel({chunk_args})))
             _fetch_add(control, {_FINISHED}, 1)
+    rounds = 0
     while _load_acquire(control, {_FINISHED}) != chunks:
         if _load_acquire(control, {_FAILED}) != 0:
             return False, True
-        _pause()
+        rounds += 1
+        if rounds < spin_rounds:
+            _pause()
+        else:  # the helper holding the chunk may need this core
+            _usleep(naps[0], naps[1])
     return control[{_RESULT}] != 0, False
 """
     return _compile(
         source, kernel, _store_release=_store_release, _load_acquire=_load_acquire,
         _compare_exchange=_compare_exchange, _fetch_or=_fetch_or, _fetch_add=_fetch_add, _pause=_pause,
+        _usleep=_usleep,
     )  # fmt: skip
 
 
@@ -274,9 +291,16 @@ def generated(table, scalars, chunk, chunks, layout, batch):
 
 @njit(cache=True, nogil=True)
 def _split_call(
-    control: np.ndarray, table: np.ndarray, args: tuple[Any, ...], chunks: int, layout: str, batch: str
+    control: np.ndarray,
+    table: np.ndarray,
+    args: tuple[Any, ...],
+    chunks: int,
+    spin_rounds: int,
+    naps: tuple[int, int, int],
+    layout: str,
+    batch: str,
 ) -> tuple[bool, bool]:
-    return _caller_side(control, table, args, chunks, literally(layout), literally(batch))
+    return _caller_side(control, table, args, chunks, spin_rounds, naps, literally(layout), literally(batch))
 
 
 @njit(cache=True, nogil=True)
@@ -290,14 +314,12 @@ def _serve(
     layout: str,
     batch: str,
 ) -> None:
-    """A helper's loop until stopped: take chunks of the jobs posted in ``control`` and run them; between jobs,
-    spin ``spin_rounds`` rounds, then nap ``usleep`` at address ``naps[0]`` for ``naps[1]`` us, doubling up to
-    ``naps[2]``."""
+    """A helper's loop until its ``_STOP`` slot is set: take chunks of the jobs posted in ``control`` and run them;
+    between jobs, spin ``spin_rounds`` rounds, then nap ``usleep`` at address ``naps[0]`` for ``naps[1]`` us,
+    doubling up to ``naps[2]``."""
     idle, nap = 0, naps[1]
-    while True:
+    while _load_acquire(control, _STOP) == 0:
         ticket = _load_acquire(control, _TICKET)
-        if ticket < 0:
-            return
         chunk = ticket & _CHUNK_MASK
         if chunk < chunks:
             if _compare_exchange(control, _TICKET, ticket, ticket + 1):
@@ -325,74 +347,93 @@ def _compiled(dispatcher: Any, signature: tuple[Any, ...]) -> Callable[..., Any]
 
 class SplitKernel:
     """``kernel(*args)`` over chunks of rows, one per thread: the calling thread and ``helpers`` helper threads,
-    for calls whose arguments have the types of ``args`` (:meth:`fits`); the ``batch`` arguments (true) are
-    arrays with the rows on their first axis, of the same length, the others are passed whole to each chunk.
-    :meth:`close` (or dropping it) stops the helpers. ``ValueError`` where the kernel cannot be split."""
+    for calls whose arguments have the types of ``args`` (:meth:`fits`). The ``batch`` arguments (true) are arrays
+    with a row per episode on their first axis, all of the same length, split between the chunks; the others are
+    passed whole to each chunk, which must only read them, and each row's results may depend on its own rows and
+    those only. :meth:`close` (or dropping it) stops the helpers. ``ValueError`` where the kernel cannot be split
+    (then call it unsplit): not a kernel numba caches on disk, arguments the shim cannot take, a whole argument with
+    as many rows as the batch ones (a row array that is not marked), no ``usleep``, or no thread to be had."""
 
     def __init__(self, kernel: Callable[..., Any], args: tuple[Any, ...], batch: Sequence[bool], helpers: int) -> None:
         packed = kernel_call.packed_layout(kernel, args)
-        if compute_fingerprint is None or not _USLEEP or packed is None or not any(batch) or helpers < 1:
+        rows = {len(arg) for arg, split in zip(args, batch, strict=True) if split}
+        whole = [arg for arg, split in zip(args, batch, strict=True) if isinstance(arg, np.ndarray) and not split]
+        if compute_fingerprint is None or not _USLEEP or packed is None or len(rows) != 1 or helpers < 1:
             raise ValueError(f"{kernel!r} cannot be split over these arguments on this platform")
+        if any(arg.shape[0] in rows for arg in whole):
+            raise ValueError(f"{kernel!r} cannot be split: a whole argument has as many rows as the split ones")
         self.kernel, self.chunks = kernel, helpers + 1
         self.layout, self.scalars = packed
         self.batch = "".join("b" if split else "-" for split in batch)
-        self.fingerprint = compute_fingerprint(args)
+        self.fingerprint, self._scalars_text = compute_fingerprint(args), repr(self.scalars)
         self.pid = os.getpid()
-        width = sum(1 + arg.ndim for arg in args if isinstance(arg, np.ndarray))
-        self.control, self.table = np.zeros(4 * 8, np.int64), np.zeros(width, np.intp)
+        self.control = _aligned_zeros(_SLOTS)
         self.control[_TICKET] = self.chunks  # job 0, every chunk taken: nothing to do until the first call
+        self.table = np.zeros(sum(1 + arg.ndim for arg in args if isinstance(arg, np.ndarray)), np.intp)
         typeof = _split_call.typeof_pyval
+        self._naps = (_USLEEP, MIN_NAP_US, MAX_NAP_US)
+        common = (typeof(self.control), typeof(self.table))
         literals = (types.literal(self.layout), types.literal(self.batch))
         self._call = _compiled(
-            _split_call, (typeof(self.control), typeof(self.table), typeof(args), types.intp, *literals)
+            _split_call, (*common, typeof(args), types.intp, types.intp, typeof(self._naps), *literals)
         )
-        naps = (_USLEEP, MIN_NAP_US, MAX_NAP_US)
         serve = _compiled(
-            _serve,
-            (typeof(self.control), typeof(self.table), typeof(self.scalars), types.intp, types.intp, typeof(naps),
-             *literals),
-        )  # fmt: skip
+            _serve, (*common, typeof(self.scalars), types.intp, types.intp, typeof(self._naps), *literals)
+        )
         if self._call is None or serve is None:
             raise ValueError(f"{kernel!r} cannot be split: numba's cache has no code for its layout")
         self.errors: list[BaseException] = []
-        literals_text = (self.layout, self.batch)
-        threads = [
-            threading.Thread(
-                target=_help,
-                args=(serve, self.control, self.table, self.scalars, self.chunks, naps, *literals_text, self.errors),
-                name=f"vegym-helper-{k}",
-                daemon=True,
-            )
-            for k in range(helpers)
-        ]
-        for thread in threads:
-            thread.start()
+        threads: list[threading.Thread] = []
         self.close = weakref.finalize(self, _stop, self.control, threads)
-        """Stop the helpers (later calls run every chunk in the calling thread)."""
+        """Stop the helpers (each after the chunk it holds; later calls run every chunk in the calling thread)."""
+        serve_args = (self.control, self.table, self.scalars, self.chunks, self._naps, self.layout, self.batch)
+        try:
+            for k in range(helpers):
+                threads.append(
+                    threading.Thread(
+                        target=_help, args=(serve, *serve_args, self.errors), name=f"vegym-helper-{k}", daemon=True
+                    )
+                )
+                threads[-1].start()
+        except RuntimeError as error:  # no thread to be had
+            threads.pop()
+            self.close()
+            raise ValueError(f"{kernel!r} cannot be split: {error}") from error
 
     def fits(self, kernel: Callable[..., Any], args: tuple[Any, ...]) -> bool:
-        """Whether this split makes the call ``kernel(*args)``: the same kernel, arguments of the same types, the
-        same scalars, and helpers in this process."""
+        """Whether this split makes the call ``kernel(*args)``: the same kernel, arguments of the same types (numba's
+        fingerprint: dtype, dimensions, layout, writability), scalars of the same types and values, and this
+        process (a forked child has none of its parent's helpers)."""
         return (
             kernel is self.kernel
             and compute_fingerprint(args) == self.fingerprint
             and self.pid == os.getpid()
-            and self.scalars == tuple(arg for arg in args if not isinstance(arg, np.ndarray))
+            and repr(tuple(arg for arg in args if not isinstance(arg, np.ndarray))) == self._scalars_text
         )
 
     def __call__(self, args: tuple[Any, ...]) -> bool:
         """``kernel(*args)`` over the chunks (``args`` must :meth:`fit <fits>`): whether a chunk's kernel returned
-        true. A kernel's error, a helper's too, is raised here once every helper has stopped (the step is then
-        incomplete, as after an error in one thread); later calls run in the calling thread."""
+        true. A kernel's error is raised here: from the calling thread's chunk at once (the chunks it had not
+        taken are then not stepped), from a helper's once the others are done; then the helpers stop, and later
+        calls run in the calling thread. Either way the step is incomplete, as after an error in one thread."""
         try:
-            result, failed = self._call(self.control, self.table, args, self.chunks, self.layout, self.batch)
-        except BaseException:  # the caller's kernel raised: stop the helpers, which finish their chunks first
+            result, failed = self._call(
+                self.control, self.table, args, self.chunks, SPIN_ROUNDS, self._naps, self.layout, self.batch
+            )
+        except Exception:  # the calling thread's chunk raised (a KeyboardInterrupt comes after the call returned)
             self.close()
             raise
         if failed:
             self.close()
             raise self.errors[0]
         return result
+
+
+def _aligned_zeros(count: int) -> np.ndarray:
+    """``count`` int64 zeros starting on a 64-byte boundary (a cache line)."""
+    padded = np.zeros(count + 8, np.int64)
+    start = (-padded.ctypes.data % 64) // 8
+    return padded[start : start + count]
 
 
 def _help(
@@ -416,8 +457,9 @@ def _help(
 
 
 def _stop(control: np.ndarray, threads: list[threading.Thread]) -> None:
-    """Stop and join the helpers of ``control``."""
-    control[_TICKET] = -1
+    """Stop and join the helpers of ``control``: each stops after the chunk it holds (a call in flight takes the
+    chunks left) and within a nap (``MAX_NAP_US``)."""
+    control[_STOP] = 1
     for thread in threads:
         if thread is not threading.current_thread():
             thread.join()
