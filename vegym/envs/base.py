@@ -178,7 +178,10 @@ class Task(abc.ABC, Generic[P]):
         """The kernel call that does :meth:`step`'s work on these arrays; the kernel returns true when
         :meth:`after_step` must follow. The single env binds it once to its own arrays (:func:`bind_kernel`), so its
         arguments must be those arrays (``state``'s, ``action``, ``out``'s, the task's own) and constants, never
-        values computed from the state."""
+        values computed from the state. A large vector env runs it over chunks of rows at once
+        (:class:`kernel_split.SplitKernel`), splitting the arrays of ``state``, ``out`` and ``action`` passed as
+        they are (not views) and passing the others whole: each row's results must depend on its own rows and the
+        task's constants only, which the kernel must not write."""
 
     def after_step(self, state: State, out: State) -> None:
         """Work after a step whose kernel returned true, such as a demand schedule's change (those rows are then
