@@ -104,29 +104,20 @@ def _compare_exchange(
 
 
 @intrinsic
-def _fetch_or(
-    typingctx: Any, array: types.Array, index: types.Integer, value: types.Integer
-) -> tuple[Any, Callable[..., Any]]:
-    """Atomically ``array[index] |= value`` (int64), release ordering."""
+def _atomic_update(
+    typingctx: Any, array: types.Array, index: types.Integer, value: types.Integer, operation: types.StringLiteral
+) -> tuple[Any, Callable[..., Any]] | None:
+    """Atomically ``array[index] = array[index] <operation> value`` (int64; ``operation`` ``"add"`` or ``"or"``),
+    release ordering."""
+    if not isinstance(operation, types.StringLiteral):
+        return None
 
     def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
-        builder.atomic_rmw("or", _slot_pointer(context, builder, signature, args), args[2], "release")
+        pointer = _slot_pointer(context, builder, signature, args)
+        builder.atomic_rmw(operation.literal_value, pointer, args[2], "release")
         return context.get_dummy_value()
 
-    return types.void(array, index, types.int64), codegen
-
-
-@intrinsic
-def _fetch_add(
-    typingctx: Any, array: types.Array, index: types.Integer, value: types.Integer
-) -> tuple[Any, Callable[..., Any]]:
-    """Atomically ``array[index] += value`` (int64), release ordering."""
-
-    def codegen(context: Any, builder: Any, signature: Any, args: Any) -> Any:
-        builder.atomic_rmw("add", _slot_pointer(context, builder, signature, args), args[2], "release")
-        return context.get_dummy_value()
-
-    return types.void(array, index, types.int64), codegen
+    return types.void(array, index, types.int64, operation), codegen
 
 
 @intrinsic
@@ -239,8 +230,8 @@ def generated(control, table, args, chunks, spin_rounds, naps, layout, batch):
             break
         if _compare_exchange(control, {_TICKET}, ticket, ticket + 1):
             {_BOUNDS}
-            _fetch_or(control, {_RESULT}, _truth(kernel({chunk_args})))
-            _fetch_add(control, {_FINISHED}, 1)
+            _atomic_update(control, {_RESULT}, _truth(kernel({chunk_args})), "or")
+            _atomic_update(control, {_FINISHED}, 1, "add")
     rounds = 0
     while _load_acquire(control, {_FINISHED}) != chunks:
         if _load_acquire(control, {_FAILED}) != 0:
@@ -254,8 +245,7 @@ def generated(control, table, args, chunks, spin_rounds, naps, layout, batch):
 """
     return _compile(
         source, kernel, _store_release=_store_release, _load_acquire=_load_acquire,
-        _compare_exchange=_compare_exchange, _fetch_or=_fetch_or, _fetch_add=_fetch_add, _pause=_pause,
-        _usleep=_usleep,
+        _compare_exchange=_compare_exchange, _atomic_update=_atomic_update, _pause=_pause, _usleep=_usleep,
     )  # fmt: skip
 
 
@@ -324,8 +314,8 @@ def _serve(
         if chunk < chunks:
             if _compare_exchange(control, _TICKET, ticket, ticket + 1):
                 result = _helper_side(table, scalars, chunk, chunks, literally(layout), literally(batch))
-                _fetch_or(control, _RESULT, result)
-                _fetch_add(control, _FINISHED, 1)
+                _atomic_update(control, _RESULT, result, "or")
+                _atomic_update(control, _FINISHED, 1, "add")
                 idle, nap = 0, naps[1]
         elif idle < spin_rounds:
             idle += 1
