@@ -980,8 +980,8 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             if split is not None:
                 split.close()
             rows = {id(array) for array in (*state.values(), *out.values(), actions)}
+            batch = [id(arg) in rows for arg in args]
             try:
-                batch = [id(arg) in rows for arg in args]
                 split = SplitKernel(kernel, args, batch, self._split_helpers)
             except ValueError:  # not splittable: this env steps in one thread from now on
                 self._split_helpers, split = 0, None
