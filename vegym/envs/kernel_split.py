@@ -40,7 +40,7 @@ with contextlib.suppress(AttributeError, OSError, TypeError):
     _USLEEP = ctypes.cast(ctypes.CDLL(None).usleep, ctypes.c_void_p).value or 0
 
 SPLIT_MIN_ROWS = 4096
-"""Rows per chunk at least: a vector env's step kernel runs in ``min(CPU cores, num_envs // SPLIT_MIN_ROWS)``
+"""Rows per chunk at least: a vector env's step kernel runs in ``min(threads, num_envs // SPLIT_MIN_ROWS)``
 chunks, one per thread, where that is two or more. (With fewer rows a step is mostly Python, which a spinning
 helper slows; and more chunks than threads were slower, each chunk costing a few microseconds.)"""
 SPIN_ROUNDS = 8192
@@ -54,7 +54,7 @@ _TICKET, _FINISHED, _RESULT, _FAILED, _STOP = (8 * k for k in range(5))
 """Slots of the control array (int64), each in a 64-byte cache line of its own: the ticket ``job << 32 | chunk``,
 the next chunk of the current job to take; how many of its chunks are finished; whether a chunk's kernel returned
 true; whether a helper's kernel raised; whether the helpers are to stop (after the chunk they hold)."""
-_SLOTS = 5 * 8
+_SLOTS = _STOP + 8
 _CHUNK_MASK = (1 << 32) - 1
 _JOB_MASK = (1 << 31) - 1
 """Job numbers wrap around at 2**31."""
@@ -356,6 +356,7 @@ class SplitKernel:
         self.layout, self.scalars = packed
         self.batch = "".join("b" if split else "-" for split in batch)
         self.fingerprint, self._scalars_text = compute_fingerprint(args), repr(self.scalars)
+        self._scalar_positions = tuple(k for k, arg in enumerate(args) if not isinstance(arg, np.ndarray))
         self.pid = os.getpid()
         self.control = _aligned_zeros(_SLOTS)
         self.control[_TICKET] = self.chunks  # job 0, every chunk taken: nothing to do until the first call
@@ -398,7 +399,7 @@ class SplitKernel:
             kernel is self.kernel
             and compute_fingerprint(args) == self.fingerprint
             and self.pid == os.getpid()
-            and repr(tuple(arg for arg in args if not isinstance(arg, np.ndarray))) == self._scalars_text
+            and repr(tuple(args[k] for k in self._scalar_positions)) == self._scalars_text
         )
 
     def __call__(self, args: tuple[Any, ...]) -> bool:
