@@ -17,6 +17,7 @@ from numba import njit
 
 import vegym  # noqa: F401  (registers the envs)
 from vegym.envs import kernel_split
+from vegym.envs.base import _leaves
 from vegym.envs.kernel_split import SPLIT_MIN_ROWS, SplitKernel
 
 ENV_IDS = sorted(env_id for env_id in gym.registry if env_id.startswith("vegym/"))
@@ -37,15 +38,16 @@ def _vector_env(env_id: str, helpers: int) -> gym.vector.VectorEnv:
 
 
 def _rollout(env: gym.vector.VectorEnv, steps: int, seed: int = 3) -> list[np.ndarray]:
-    """The observations, rewards, ends and reward terms of a seeded rollout of random actions."""
+    """The observations, rewards, ends and every info array of a seeded rollout of random actions, the infos read
+    after the last step (earlier infos must stay as they were returned)."""
     obs, _ = env.reset(seed=seed)
     actions = np.random.default_rng(seed).uniform(-1, 1, (steps, *env.action_space.shape)).astype(np.float32)
-    outputs = [obs]
+    outputs, infos = [obs], []
     for action in actions:
         obs, reward, terminated, truncated, info = env.step(action)
-        terms = info.get("reward_terms", {})
-        outputs += [obs, reward, terminated, truncated, *(np.asarray(terms[name]) for name in sorted(terms))]
-    return outputs
+        outputs += [obs, reward, terminated, truncated]
+        infos.append(info)
+    return outputs + [np.asarray(value) for info in infos for value in _leaves(info)]
 
 
 def _assert_same(first: list[np.ndarray], second: list[np.ndarray]) -> None:
@@ -147,6 +149,53 @@ def test_a_split_kernel_returns_and_writes_what_the_kernel_does(helpers: int) ->
     args[3][:] = 0.0
     assert split(args) == _divide(*reference)  # closed: every chunk in the calling thread
     np.testing.assert_array_equal(args[3], reference[3])
+
+
+@pytest.mark.parametrize("helpers", [1, 3])
+def test_each_chunk_copies_its_rows_of_the_arrays_named_in_copies_after_its_kernel(helpers: int) -> None:
+    args, reference = _divide_arguments(), _divide_arguments()
+    _divide(*reference)
+    numerators, out = np.empty_like(args[0]), np.full_like(args[3], np.nan)
+    split = SplitKernel(_divide, (*args, out, numerators), [True, True, False, True, True, True], helpers, (3, 0))
+    split((*args, out, numerators))
+    np.testing.assert_array_equal(out, reference[3])  # the kernel's output, every row
+    np.testing.assert_array_equal(numerators, reference[0])
+    split.close()
+
+
+@pytest.mark.parametrize(
+    ("copies", "destinations", "message"),
+    [
+        ((2,), (np.zeros(10_001),), "argument 2 is not a batch argument"),
+        ((4,), (np.zeros(10_001),), "argument 4 is not a batch argument"),
+        ((3,), (np.zeros(10_001, np.float32),), "argument 3's copy has another dtype or shape"),
+    ],
+)
+def test_copies_of_other_than_the_kernels_batch_arrays_or_into_other_arrays_are_refused(
+    copies: tuple[int, ...], destinations: tuple[np.ndarray, ...], message: str
+) -> None:
+    with pytest.raises(ValueError, match=message):
+        SplitKernel(_divide, (*_divide_arguments(), *destinations), [True, True, False, True, True], 1, copies)
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_after_step_leaves_the_state_arrays_that_the_info_reports_as_the_kernel_wrote_them(env_id: str) -> None:
+    """The split's copies of those arrays are made right after the kernel, before ``Task.after_step``."""
+    env = gym.make_vec(env_id, num_envs=16, vectorization_mode="vector_entry_point").unwrapped
+    task, calls = env.task, []
+
+    def checked_after_step(state: dict, out: dict) -> None:
+        reported = [value for value in _leaves(task.info(state, out)) if any(value is s for s in state.values())]
+        before = [value.copy() for value in reported]
+        type(task).after_step(task, state, out)
+        calls.append(len(reported))
+        for value, copy_before in zip(reported, before, strict=True):
+            np.testing.assert_array_equal(value, copy_before)
+
+    task.after_step = checked_after_step
+    _rollout(env, 420)  # PendulumPump first changes its targets after 200-400 steps
+    if type(task).after_step is not vegym.envs.base.Task.after_step:
+        assert calls, "the rollout never ran after_step"
 
 
 @pytest.mark.parametrize("zero_at", [0, -1])

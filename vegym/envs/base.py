@@ -185,7 +185,9 @@ class Task(abc.ABC, Generic[P]):
 
     def after_step(self, state: State, out: State) -> None:
         """Work after a step whose kernel returned true, such as a demand schedule's change (those rows are then
-        observed again: ``out["obs"]`` must show the state after all of the step)."""
+        observed again: ``out["obs"]`` must show the state after all of the step). It must leave the state arrays
+        that :meth:`info` reports as the kernel wrote them: a split step copies them for the info right after the
+        kernel (``VegymVectorEnv._step_task``)."""
 
     @abc.abstractmethod
     def info(self, state: State, out: State) -> Info:
@@ -947,14 +949,15 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             for name, value in out.items():
                 if name != "obs":
                     value.fill(0)
+            copies = {}
         else:
-            self._step_task(state, a, out)
+            copies = self._step_task(state, a, out)
         active, truncated, self._autoreset = np.empty(n, np.bool_), np.empty(n, np.bool_), np.empty(n, np.bool_)
         max_steps = self.max_episode_steps if self.max_episode_steps is not None else np.iinfo(np.int64).max
         reward, terminated = out["reward"], out["terminated"]
         rows = _end_step(state["step"], resetting, max_steps, reward, terminated, active, truncated, self._autoreset)
         active.flags.writeable = False  # the one mask of every info entry
-        info = self._vector_info(self.task.info(state, out), active, *self._state_ids(state))
+        info = self._vector_info(self.task.info(state, out), active, *self._state_ids(state), copies)
         if len(rows):
             self._renew_episode_constants(every_row=every_resets)
         if every_resets:
@@ -966,28 +969,35 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             self._record_renderers(rows, info)
         return out["obs"], reward, terminated, truncated, info
 
-    def _step_task(self, state: State, actions: np.ndarray, out: State) -> None:
+    def _step_task(self, state: State, actions: np.ndarray, out: State) -> dict[int, np.ndarray]:
         """The task's step of every sub-env (:meth:`Task.step`): with two or more chunks of ``SPLIT_MIN_ROWS`` rows
         and of threads (:func:`_split_helpers`), its kernel runs over chunks of rows in this thread and helper
         threads at once (:class:`kernel_split.SplitKernel`), where it can be split: its arguments that are the
-        arrays of ``state``, ``out`` and ``actions`` themselves are split by rows, the others passed whole."""
+        arrays of ``state``, ``out`` and ``actions`` themselves are split by rows, the others passed whole; and
+        each chunk copies its rows of the state arrays that the info reports, for the info (each thread copies the
+        rows it wrote). Returns those copies by the ids of their state arrays (none where not split)."""
         if self._split_helpers < 1:
             self.task.step(state, actions, out)
-            return
+            return {}
         kernel, args = self.task.step_call(state, actions, out)
         split = self._split
-        if split is None or not split.fits(kernel, args):
+        copies = () if split is None else tuple(np.empty_like(args[k]) for k in split.copies)
+        if split is None or not split.fits(kernel, (*args, *copies)):
             if split is not None:
                 split.close()
             rows = {id(array) for array in (*state.values(), *out.values(), actions)}
-            batch = [id(arg) in rows for arg in args]
+            reported = self._state_ids(state)[0] & {id(value) for value in _leaves(self.task.info(state, out))}
+            sources = [k for k, arg in enumerate(args) if id(arg) in reported]
+            copies = tuple(np.empty_like(args[k]) for k in sources)
+            batch = [id(arg) in rows for arg in args] + [True] * len(copies)
             try:
-                split = SplitKernel(kernel, args, batch, self._split_helpers)
+                split = SplitKernel(kernel, (*args, *copies), batch, self._split_helpers, sources)
             except ValueError:  # not splittable: this env steps in one thread from now on
-                self._split_helpers, split = 0, None
+                self._split_helpers, split, copies = 0, None, ()
             self._split = split
-        if kernel(*args) if split is None else split(args):
+        if kernel(*args) if split is None else split((*args, *copies)):
             self.task.after_step(state, out)
+        return {} if split is None else {id(args[k]): copy for k, copy in zip(split.copies, copies, strict=True)}
 
     def close_extras(self, **kwargs: Any) -> None:
         """Stop the step's helper threads, for good: steps after ``close()`` run in the calling thread."""
@@ -1053,23 +1063,31 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             state[name] = np.empty_like(state[name]) if every_row else state[name].copy()
 
     def _vector_info(
-        self, info: Mapping[str, Any], mask: np.ndarray, updated_ids: set[int], constant_ids: set[int], prefix: str = ""
+        self,
+        info: Mapping[str, Any],
+        mask: np.ndarray,
+        updated_ids: set[int],
+        constant_ids: set[int],
+        copies: Mapping[int, np.ndarray],
+        prefix: str = "",
     ) -> Info:
         """``info`` with Gymnasium's ``_name`` masks. Arrays of (views of) the state: copied where later steps update
-        them in place (``updated_ids``), read-only views of the episode constants (``constant_ids``), which the
-        next steps read. A constant (not an array): a read-only array, shared by the steps while it stays the same
-        object."""
+        them in place (``updated_ids``; ``copies`` has those the step made, by the state arrays' ids), read-only
+        views of the episode constants (``constant_ids``), which the next steps read. A constant (not an array): a
+        read-only array, shared by the steps while it stays the same object."""
         out: Info = {}
         for name, value in info.items():
             if isinstance(value, np.ndarray):
-                if id(value) in updated_ids or id(value.base) in updated_ids:
+                if id(value) in copies:
+                    value = copies[id(value)]
+                elif id(value) in updated_ids or id(value.base) in updated_ids:
                     value = value.copy()
                 elif id(value) in constant_ids or id(value.base) in constant_ids:
                     value = value.view()
                     value.flags.writeable = False
                 out[name] = value
             elif isinstance(value, Mapping):
-                out[name] = self._vector_info(value, mask, updated_ids, constant_ids, f"{prefix}{name}/")
+                out[name] = self._vector_info(value, mask, updated_ids, constant_ids, copies, f"{prefix}{name}/")
             else:
                 out[name] = self._constant_array(prefix + name, value)
             out[f"_{name}"] = mask

@@ -177,17 +177,29 @@ def _helper_side(table: np.ndarray, scalars: tuple[Any, ...], chunk: int, chunks
     raise NotImplementedError("only callable inside numba-compiled code")
 
 
-def _fields(layout: types.StringLiteral, batch: types.StringLiteral) -> tuple[Any, list[tuple[str, int, bool]]]:
-    """The kernel that ``layout`` (:func:`kernel_call.packed_layout`) names and its arguments' fields, each
-    ``(field, ndim, split by rows)`` (ndim 0 for a scalar); ``batch`` has ``"b"`` for each argument split by
-    rows, ``"-"`` for the others."""
+def _fields(
+    layout: types.StringLiteral, batch: types.StringLiteral
+) -> tuple[Any, list[tuple[str, int, bool]], int, list[tuple[int, int]]]:
+    """The kernel that ``layout`` (:func:`kernel_call.packed_layout`) names, the call's arguments' fields, each
+    ``(field, ndim, split by rows)`` (ndim 0 for a scalar), the kernel's argument count and the copies, each
+    ``(source, destination)`` argument positions. ``batch`` has ``"b"`` for each argument split by rows, ``"-"``
+    for the others, then ``">"`` and the copies' sources, comma-separated: their destinations are the last
+    arguments, past the kernel's."""
     target, _, *fields = layout.literal_value.split("|")
+    flags, _, sources = batch.literal_value.partition(">")
     module, name = target.split(":")
     kernel = getattr(__import__(module, fromlist=[name]), name)
-    return kernel, [
-        (field, 0 if field == "s" else int(field.split(":")[1]), flag == "b")
-        for field, flag in zip(fields, batch.literal_value, strict=True)
-    ]
+    copied = [int(k) for k in sources.split(",")] if sources else []
+    arity = len(fields) - len(copied)
+    return (
+        kernel,
+        [
+            (field, 0 if field == "s" else int(field.split(":")[1]), flag == "b")
+            for field, flag in zip(fields, flags, strict=True)
+        ],
+        arity,
+        [(source, arity + k) for k, source in enumerate(copied)],
+    )
 
 
 def _compile(source: str, kernel: Any, **names: Any) -> Callable[..., Any]:
@@ -207,14 +219,17 @@ def _caller_side_impl(control, table, args, chunks, spin_rounds, naps, layout, b
     kernel returned true and whether a helper's kernel raised."""
     if not (isinstance(layout, types.StringLiteral) and isinstance(batch, types.StringLiteral)):
         return None
-    kernel, fields = _fields(layout, batch)
+    kernel, fields, arity, copies = _fields(layout, batch)
     writes, position = [], 0
     for k, (_, ndim, _) in enumerate(fields):
         if ndim:
             writes.append(f"table[{position}] = args[{k}].ctypes.data")
             writes += [f"table[{position + 1 + d}] = args[{k}].shape[{d}]" for d in range(ndim)]
             position += 1 + ndim
-    chunk_args = ", ".join(f"args[{k}][lo:hi]" if split else f"args[{k}]" for k, (_, _, split) in enumerate(fields))
+    chunk_args = ", ".join(
+        f"args[{k}][lo:hi]" if split else f"args[{k}]" for k, (_, _, split) in enumerate(fields[:arity])
+    )
+    copy_rows = "".join(f"; args[{to}][lo:hi] = args[{source}][lo:hi]" for source, to in copies)
     first = next(k for k, (_, _, split) in enumerate(fields) if split)
     source = f"""
 def generated(control, table, args, chunks, spin_rounds, naps, layout, batch):
@@ -230,7 +245,8 @@ def generated(control, table, args, chunks, spin_rounds, naps, layout, batch):
             break
         if _compare_exchange(control, {_TICKET}, ticket, ticket + 1):
             {_BOUNDS}
-            _atomic_update(control, {_RESULT}, _truth(kernel({chunk_args})), "or")
+            result = _truth(kernel({chunk_args})){copy_rows}
+            _atomic_update(control, {_RESULT}, result, "or")
             _atomic_update(control, {_FINISHED}, 1, "add")
     rounds = 0
     while _load_acquire(control, {_FINISHED}) != chunks:
@@ -254,7 +270,7 @@ def _helper_side_impl(table, scalars, chunk, chunks, layout, batch):  # noqa: AN
     """Run chunk ``chunk`` of ``chunks`` on the arrays of ``table`` and ``scalars``; the kernel's truth (0, 1)."""
     if not (isinstance(layout, types.StringLiteral) and isinstance(batch, types.StringLiteral)):
         return None
-    kernel, fields = _fields(layout, batch)
+    kernel, fields, arity, copies = _fields(layout, batch)
     names, arrays, position, scalar = {}, [], 0, 0
     for k, (field, ndim, split) in enumerate(fields):
         if not ndim:
@@ -270,11 +286,14 @@ def _helper_side_impl(table, scalars, chunk, chunks, layout, batch):  # noqa: AN
         position += 1 + ndim
     first = next(k for k, (_, _, split) in enumerate(fields) if split)
     rows_at = sum(1 + ndim for _, ndim, _ in fields[:first] if ndim) + 1  # the first batch array's row count
+    copy_rows = "".join(f"; a{to}[:] = a{source}" for source, to in copies)
     source = f"""
 def generated(table, scalars, chunk, chunks, layout, batch):
     n = table[{rows_at}]
     {_BOUNDS}
-    return _truth(kernel({", ".join(arrays)}))
+    {"; ".join(f"a{k} = {array}" for k, array in enumerate(arrays))}
+    result = _truth(kernel({", ".join(f"a{k}" for k in range(arity))})){copy_rows}
+    return result
 """
     return _compile(source, kernel, _pointer=kernel_call._pointer, _read_only=kernel_call._read_only, **names)
 
@@ -340,11 +359,21 @@ class SplitKernel:
     for calls whose arguments have the types of ``args`` (:meth:`fits`). The ``batch`` arguments (true) are arrays
     with a row per episode on their first axis, all of the same length, split between the chunks; the others are
     passed whole to each chunk, which must only read them, and each row's results may depend on its own rows and
-    those only. :meth:`close` (or dropping it) stops the helpers. ``ValueError`` where the kernel cannot be split
-    (then call it unsplit): not a kernel numba caches on disk, arguments the shim cannot take, a whole argument with
-    as many rows as the batch ones (a row array that is not marked), no ``usleep``, or no thread to be had."""
+    those only. With ``copies``, the positions of batch arguments, the last ``len(copies)`` arguments are not the
+    kernel's but arrays of the same dtypes and shapes, batch arguments too, into which each chunk copies its rows
+    of those arguments after its kernel (by the thread that wrote them, while they are in its cache).
+    :meth:`close` (or dropping it) stops the helpers. ``ValueError`` where the kernel cannot be split (then call it
+    unsplit): not a kernel numba caches on disk, arguments the shim cannot take, a whole argument with as many rows
+    as the batch ones (a row array that is not marked), no ``usleep``, or no thread to be had."""
 
-    def __init__(self, kernel: Callable[..., Any], args: tuple[Any, ...], batch: Sequence[bool], helpers: int) -> None:
+    def __init__(
+        self,
+        kernel: Callable[..., Any],
+        args: tuple[Any, ...],
+        batch: Sequence[bool],
+        helpers: int,
+        copies: Sequence[int] = (),
+    ) -> None:
         packed = kernel_call.packed_layout(kernel, args)
         rows = {len(arg) for arg, split in zip(args, batch, strict=True) if split}
         whole = [arg for arg, split in zip(args, batch, strict=True) if isinstance(arg, np.ndarray) and not split]
@@ -352,9 +381,16 @@ class SplitKernel:
             raise ValueError(f"{kernel!r} cannot be split over these arguments on this platform")
         if any(arg.shape[0] in rows for arg in whole):
             raise ValueError(f"{kernel!r} cannot be split: a whole argument has as many rows as the split ones")
-        self.kernel, self.chunks = kernel, helpers + 1
+        arity = len(args) - len(copies)
+        for k, source in enumerate(copies):
+            copy = args[arity + k]
+            if not (0 <= source < arity and batch[source] and batch[arity + k]):
+                raise ValueError(f"copies={tuple(copies)!r}: argument {source} is not a batch argument of the kernel")
+            if (copy.dtype, copy.shape) != (args[source].dtype, args[source].shape):
+                raise ValueError(f"copies={tuple(copies)!r}: argument {source}'s copy has another dtype or shape")
+        self.kernel, self.chunks, self.copies = kernel, helpers + 1, tuple(copies)
         self.layout, self.scalars = packed
-        self.batch = "".join("b" if split else "-" for split in batch)
+        self.batch = "".join("b" if split else "-" for split in batch) + ">" + ",".join(map(str, copies))
         self.fingerprint, self._scalars_text = compute_fingerprint(args), repr(self.scalars)
         self._scalar_positions = tuple(k for k, arg in enumerate(args) if not isinstance(arg, np.ndarray))
         self.pid = os.getpid()
