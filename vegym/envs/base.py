@@ -185,9 +185,9 @@ class Task(abc.ABC, Generic[P]):
 
     def after_step(self, state: State, out: State) -> None:
         """Work after a step whose kernel returned true, such as a demand schedule's change (those rows are then
-        observed again: ``out["obs"]`` must show the state after all of the step). It must leave the episode
-        constants and the state arrays that :meth:`info` reports as the kernel left them: a split step copies them
-        right after the kernel (``VegymVectorEnv._step_task``)."""
+        observed again: ``out["obs"]`` must show the state after all of the step). It must leave the state arrays
+        that :meth:`info` reports as the kernel wrote them: a split step copies them for the info right after the
+        kernel (``VegymVectorEnv._step_task``)."""
 
     @abc.abstractmethod
     def info(self, state: State, out: State) -> Info:
@@ -959,7 +959,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         active.flags.writeable = False  # the one mask of every info entry
         info = self._vector_info(self.task.info(state, out), active, *self._state_ids(state), copies)
         if len(rows):
-            self._renew_episode_constants(every_row=every_resets, copies=copies)
+            self._renew_episode_constants(every_row=every_resets)
         if every_resets:
             every = self._every
             _in_chunks(n, lambda r: self.task.restart(rows_of(state, r), every[: r.stop - r.start], out["obs"][r]))
@@ -974,9 +974,8 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         and of threads (:func:`_split_helpers`), its kernel runs over chunks of rows in this thread and helper
         threads at once (:class:`kernel_split.SplitKernel`), where it can be split: its arguments that are the
         arrays of ``state``, ``out`` and ``actions`` themselves are split by rows, the others passed whole; and
-        each chunk copies its rows of the state arrays that the info reports, for the info, and of the episode
-        constants the kernel takes, for :meth:`_renew_episode_constants` (each thread copies rows it has just
-        read or written). Returns those copies by the ids of their state arrays (none where not split)."""
+        each chunk copies its rows of the state arrays that the info reports, for the info (each thread copies the
+        rows it wrote). Returns those copies by the ids of their state arrays (none where not split)."""
         if self._split_helpers < 1:
             self.task.step(state, actions, out)
             return {}
@@ -987,9 +986,8 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             if split is not None:
                 split.close()
             rows = {id(array) for array in (*state.values(), *out.values(), actions)}
-            updated_ids, constant_ids = self._state_ids(state)
-            copied = constant_ids | (updated_ids & {id(value) for value in _leaves(self.task.info(state, out))})
-            sources = [k for k, arg in enumerate(args) if id(arg) in copied]
+            reported = self._state_ids(state)[0] & {id(value) for value in _leaves(self.task.info(state, out))}
+            sources = [k for k, arg in enumerate(args) if id(arg) in reported]
             copies = tuple(np.empty_like(args[k]) for k in sources)
             batch = [id(arg) in rows for arg in args] + [True] * len(copies)
             try:
@@ -1056,18 +1054,13 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             {id(state[name]) for name in constants},
         )
 
-    def _renew_episode_constants(self, every_row: bool, copies: Mapping[int, np.ndarray] | None = None) -> None:
+    def _renew_episode_constants(self, every_row: bool) -> None:
         """New arrays for the task's episode constants, before episodes start: earlier infos hold the old ones.
-        Copies (those in ``copies``, by the old arrays' ids, where the step made them), or uninitialised when every
-        row is about to be started."""
+        Copies, or uninitialised when every row is about to be started."""
         state = self.state
         assert state is not None
         for name in self.task.episode_constants:
-            value = state[name]
-            if every_row:
-                state[name] = np.empty_like(value)
-            else:
-                state[name] = copies[id(value)] if copies and id(value) in copies else value.copy()
+            state[name] = np.empty_like(state[name]) if every_row else state[name].copy()
 
     def _vector_info(
         self,
@@ -1078,20 +1071,20 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         copies: Mapping[int, np.ndarray],
         prefix: str = "",
     ) -> Info:
-        """``info`` with Gymnasium's ``_name`` masks. Arrays of (views of) the state: read-only views of the episode
-        constants (``constant_ids``), which the next steps read; copies where later steps update them in place
-        (``updated_ids``; ``copies`` has those that the step made, by the state arrays' ids). A constant (not an
-        array): a read-only array, shared by the steps while it stays the same object."""
+        """``info`` with Gymnasium's ``_name`` masks. Arrays of (views of) the state: copied where later steps update
+        them in place (``updated_ids``; ``copies`` has those the step made, by the state arrays' ids), read-only
+        views of the episode constants (``constant_ids``), which the next steps read. A constant (not an array): a
+        read-only array, shared by the steps while it stays the same object."""
         out: Info = {}
         for name, value in info.items():
             if isinstance(value, np.ndarray):
-                if id(value) in constant_ids or id(value.base) in constant_ids:
-                    value = value.view()
-                    value.flags.writeable = False
-                elif id(value) in copies:
+                if id(value) in copies:
                     value = copies[id(value)]
                 elif id(value) in updated_ids or id(value.base) in updated_ids:
                     value = value.copy()
+                elif id(value) in constant_ids or id(value.base) in constant_ids:
+                    value = value.view()
+                    value.flags.writeable = False
                 out[name] = value
             elif isinstance(value, Mapping):
                 out[name] = self._vector_info(value, mask, updated_ids, constant_ids, copies, f"{prefix}{name}/")
