@@ -163,19 +163,40 @@ def test_each_chunk_copies_its_rows_of_the_arrays_named_in_copies_after_its_kern
     split.close()
 
 
+def _read_only(array: np.ndarray) -> np.ndarray:
+    array.flags.writeable = False
+    return array
+
+
 @pytest.mark.parametrize(
     ("copies", "destinations", "message"),
     [
         ((2,), (np.zeros(10_001),), "argument 2 is not a batch argument"),
         ((4,), (np.zeros(10_001),), "argument 4 is not a batch argument"),
-        ((3,), (np.zeros(10_001, np.float32),), "argument 3's copy has another dtype or shape"),
+        ((3,), (np.zeros(10_001, np.float32),), "argument 4, argument 3's copy, is not a writeable batch array"),
+        ((3,), (_read_only(np.zeros(10_001)),), "argument 4, argument 3's copy, is not a writeable batch array"),
     ],
 )
-def test_copies_of_other_than_the_kernels_batch_arrays_or_into_other_arrays_are_refused(
+def test_copies_of_non_batch_arguments_or_into_mismatched_or_read_only_arrays_are_refused(
     copies: tuple[int, ...], destinations: tuple[np.ndarray, ...], message: str
 ) -> None:
-    with pytest.raises(ValueError, match=message):
+    with pytest.raises(TypeError, match=message):
         SplitKernel(_divide, (*_divide_arguments(), *destinations), [True, True, False, True, True], 1, copies)
+
+
+def test_a_split_steps_info_reports_the_step_count_after_the_step_as_one_thread_does() -> None:
+    """``step`` is counted after the kernel, so the chunks do not copy it for the info."""
+    counts = []
+    for helpers in (1, 0):
+        env = _vector_env("vegym/Aircraft-v0", helpers)
+        task = env.unwrapped.task
+        task.info = lambda state, out, info=task.info: {**info(state, out), "elapsed": state["step"]}
+        env.reset(seed=0)
+        action = np.zeros(env.action_space.shape, np.float32)
+        counts.append([env.step(action)[4]["elapsed"][:3].tolist() for _ in range(3)])
+        assert (env.unwrapped._split is not None) == (helpers == 1)
+        env.close()
+    assert counts[0] == counts[1] == [[1, 1, 1], [2, 2, 2], [3, 3, 3]]
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)

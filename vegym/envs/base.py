@@ -974,19 +974,22 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         and of threads (:func:`_split_helpers`), its kernel runs over chunks of rows in this thread and helper
         threads at once (:class:`kernel_split.SplitKernel`), where it can be split: its arguments that are the
         arrays of ``state``, ``out`` and ``actions`` themselves are split by rows, the others passed whole; and
-        each chunk copies its rows of the state arrays that the info reports, for the info (each thread copies the
-        rows it wrote). Returns those copies by the ids of their state arrays (none where not split)."""
+        each chunk copies its rows of the state arrays that the info reports (but ``step``, which the bookkeeping
+        after the kernel counts), for the info (each thread copies the rows it wrote). Returns those copies by the
+        ids of their state arrays (none where not split)."""
         if self._split_helpers < 1:
             self.task.step(state, actions, out)
             return {}
         kernel, args = self.task.step_call(state, actions, out)
         split = self._split
-        copies = () if split is None else tuple(np.empty_like(args[k]) for k in split.copies)
-        if split is None or not split.fits(kernel, (*args, *copies)):
+        same = split is not None and split.kernel is kernel and len(args) == split.arity
+        copies = tuple(np.empty_like(args[k]) for k in split.copies) if same else ()
+        if not same or not split.fits(kernel, (*args, *copies)):
             if split is not None:
                 split.close()
             rows = {id(array) for array in (*state.values(), *out.values(), actions)}
             reported = self._state_ids(state)[0] & {id(value) for value in _leaves(self.task.info(state, out))}
+            reported.discard(id(state["step"]))  # counted after the kernel: copied by _vector_info
             sources = [k for k, arg in enumerate(args) if id(arg) in reported]
             copies = tuple(np.empty_like(args[k]) for k in sources)
             batch = [id(arg) in rows for arg in args] + [True] * len(copies)
@@ -1072,9 +1075,10 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         prefix: str = "",
     ) -> Info:
         """``info`` with Gymnasium's ``_name`` masks. Arrays of (views of) the state: copied where later steps update
-        them in place (``updated_ids``; ``copies`` has those the step made, by the state arrays' ids), read-only
-        views of the episode constants (``constant_ids``), which the next steps read. A constant (not an array): a
-        read-only array, shared by the steps while it stays the same object."""
+        them in place (``updated_ids``; ``copies`` has those the step made, by the state arrays' ids: entries that
+        report one array share its copy), read-only views of the episode constants (``constant_ids``), which the
+        next steps read. A constant (not an array): a read-only array, shared by the steps while it stays the same
+        object."""
         out: Info = {}
         for name, value in info.items():
             if isinstance(value, np.ndarray):

@@ -361,10 +361,11 @@ class SplitKernel:
     passed whole to each chunk, which must only read them, and each row's results may depend on its own rows and
     those only. With ``copies``, the positions of batch arguments, the last ``len(copies)`` arguments are not the
     kernel's but arrays of the same dtypes and shapes, batch arguments too, into which each chunk copies its rows
-    of those arguments after its kernel (by the thread that wrote them, while they are in its cache).
-    :meth:`close` (or dropping it) stops the helpers. ``ValueError`` where the kernel cannot be split (then call it
-    unsplit): not a kernel numba caches on disk, arguments the shim cannot take, a whole argument with as many rows
-    as the batch ones (a row array that is not marked), no ``usleep``, or no thread to be had."""
+    of those arguments after its kernel (by the thread that wrote them, while they are in its cache; ``TypeError``
+    for copies of other arguments or into other arrays). :meth:`close` (or dropping it) stops the helpers.
+    ``ValueError`` where the kernel cannot be split (then call it unsplit): not a kernel numba caches on disk,
+    arguments the shim cannot take, a whole argument with as many rows as the batch ones (a row array that is not
+    marked), no ``usleep``, or no thread to be had."""
 
     def __init__(
         self,
@@ -381,13 +382,21 @@ class SplitKernel:
             raise ValueError(f"{kernel!r} cannot be split over these arguments on this platform")
         if any(arg.shape[0] in rows for arg in whole):
             raise ValueError(f"{kernel!r} cannot be split: a whole argument has as many rows as the split ones")
-        arity = len(args) - len(copies)
+        self.arity = len(args) - len(copies)
+        """The kernel's argument count."""
         for k, source in enumerate(copies):
-            copy = args[arity + k]
-            if not (0 <= source < arity and batch[source] and batch[arity + k]):
-                raise ValueError(f"copies={tuple(copies)!r}: argument {source} is not a batch argument of the kernel")
-            if (copy.dtype, copy.shape) != (args[source].dtype, args[source].shape):
-                raise ValueError(f"copies={tuple(copies)!r}: argument {source}'s copy has another dtype or shape")
+            copy = args[self.arity + k]
+            if not (0 <= source < self.arity and batch[source]):
+                raise TypeError(f"copies={tuple(copies)!r}: argument {source} is not a batch argument of the kernel")
+            if not (
+                batch[self.arity + k]
+                and copy.flags.writeable
+                and (copy.dtype, copy.shape) == (args[source].dtype, args[source].shape)
+            ):
+                raise TypeError(
+                    f"copies={tuple(copies)!r}: argument {self.arity + k}, argument {source}'s copy, is not a "
+                    "writeable batch array of its dtype and shape"
+                )
         self.kernel, self.chunks, self.copies = kernel, helpers + 1, tuple(copies)
         self.layout, self.scalars = packed
         self.batch = "".join("b" if split else "-" for split in batch) + ">" + ",".join(map(str, copies))
