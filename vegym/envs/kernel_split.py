@@ -146,6 +146,16 @@ def _usleep(typingctx: Any, address: types.Integer, microseconds: types.Integer)
     return types.void(types.intp, types.int64), codegen
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _copy(source: np.ndarray, destination: np.ndarray) -> None:
+    """``destination[...] = source`` for C-contiguous arrays of one shape, element by element: numba's slice
+    assignment first copies a source that may overlap the destination (which it cannot rule out for arrays
+    rebuilt from addresses), at twice the cost."""
+    flat = destination.reshape(-1)
+    for i, value in enumerate(source.reshape(-1)):
+        flat[i] = value
+
+
 def _truth(value: Any) -> int:
     """Numba-only: a kernel's result as 0 or 1 (None as 0)."""
     raise NotImplementedError("only callable inside numba-compiled code")
@@ -229,7 +239,7 @@ def _caller_side_impl(control, table, args, chunks, spin_rounds, naps, layout, b
     chunk_args = ", ".join(
         f"args[{k}][lo:hi]" if split else f"args[{k}]" for k, (_, _, split) in enumerate(fields[:arity])
     )
-    copy_rows = "".join(f"; args[{to}][lo:hi] = args[{source}][lo:hi]" for source, to in copies)
+    copy_rows = "".join(f"; _copy(args[{source}][lo:hi], args[{to}][lo:hi])" for source, to in copies)
     first = next(k for k, (_, _, split) in enumerate(fields) if split)
     source = f"""
 def generated(control, table, args, chunks, spin_rounds, naps, layout, batch):
@@ -262,6 +272,7 @@ def generated(control, table, args, chunks, spin_rounds, naps, layout, batch):
     return _compile(
         source, kernel, _store_release=_store_release, _load_acquire=_load_acquire,
         _compare_exchange=_compare_exchange, _atomic_update=_atomic_update, _pause=_pause, _usleep=_usleep,
+        _copy=_copy,
     )  # fmt: skip
 
 
@@ -286,7 +297,7 @@ def _helper_side_impl(table, scalars, chunk, chunks, layout, batch):  # noqa: AN
         position += 1 + ndim
     first = next(k for k, (_, _, split) in enumerate(fields) if split)
     rows_at = sum(1 + ndim for _, ndim, _ in fields[:first] if ndim) + 1  # the first batch array's row count
-    copy_rows = "".join(f"; a{to}[:] = a{source}" for source, to in copies)
+    copy_rows = "".join(f"; _copy(a{source}, a{to})" for source, to in copies)
     source = f"""
 def generated(table, scalars, chunk, chunks, layout, batch):
     n = table[{rows_at}]
@@ -295,7 +306,9 @@ def generated(table, scalars, chunk, chunks, layout, batch):
     result = _truth(kernel({", ".join(f"a{k}" for k in range(arity))})){copy_rows}
     return result
 """
-    return _compile(source, kernel, _pointer=kernel_call._pointer, _read_only=kernel_call._read_only, **names)
+    return _compile(
+        source, kernel, _pointer=kernel_call._pointer, _read_only=kernel_call._read_only, _copy=_copy, **names
+    )
 
 
 @njit(cache=True, nogil=True)
