@@ -356,3 +356,23 @@ def test_job_numbers_wrap_around_without_stopping_the_helpers() -> None:
         assert split.control[kernel_split._TICKET] >= 0
     assert len(_helpers()) >= 1
     split.close()
+
+
+def _idle_sleeps(job: int, state: tuple[int, int, int], rounds: int) -> tuple[list[int], tuple[int, int, int]]:
+    """The sleeps (us, 0 for a spin round) of ``rounds`` idle rounds of a helper with 3 spin rounds and naps of
+    50 to 400 us, from ``state`` (seen, idle, nap) while job ``job`` is current; and the state after them."""
+    sleeps = []
+    for _ in range(rounds):
+        *state, sleep = kernel_split._idle_round(job, *state, 3, (0, 50, 400))
+        sleeps.append(sleep)
+    return sleeps, tuple(state)
+
+
+def test_an_idle_helper_spins_then_naps_ever_longer_and_spins_again_once_a_job_is_posted() -> None:
+    sleeps, state = _idle_sleeps(7, (7, 0, 50), 8)
+    assert sleeps == [0, 0, 0, 50, 100, 200, 400, 400]
+    # job 8 was posted while the helper napped, and the calling thread took its chunks: the next job likely
+    # comes as soon, so the helper spins again rather than nap 400 us
+    sleeps, state = _idle_sleeps(8, state, 5)
+    assert sleeps == [0, 0, 0, 50, 100]
+    assert _idle_sleeps(0, state, 1)[0] == [0]  # a job number that wrapped around is a new job too

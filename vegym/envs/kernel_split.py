@@ -7,8 +7,9 @@ late, napping or stopped only leaves more chunks to the caller: results never de
 that has taken a chunk is waited for, and one descheduled then delays the step). A helper is a compiled loop that
 never takes the GIL. Handing work to a sleeping thread took 60-130 us on the 2-core VM this was measured on, about
 half of an 8,192-env step, so a helper spins between jobs, for ``SPIN_ROUNDS`` rounds (about 0.2 ms here), then
-naps in ``usleep`` calls that double from ``MIN_NAP_US`` to ``MAX_NAP_US``, which hand its core back. Splitting
-needs POSIX ``usleep`` and numba's type fingerprints; without them kernels run unsplit.
+naps in ``usleep`` calls that double from ``MIN_NAP_US`` to ``MAX_NAP_US``, which hand its core back; a job posted
+while it naps (the calling thread takes its chunks) starts the spin again. Splitting needs POSIX ``usleep`` and
+numba's type fingerprints; without them kernels run unsplit.
 """
 
 from __future__ import annotations
@@ -44,9 +45,9 @@ SPLIT_MIN_ROWS = 4096
 chunks, one per thread, where that is two or more. (With fewer rows a step is mostly Python, which a spinning
 helper slows; and more chunks than threads were slower, each chunk costing a few microseconds.)"""
 SPIN_ROUNDS = 8192
-"""Idle rounds a helper spins through before it naps, and rounds the calling thread waits for a helper's chunk
-before it naps between looks: each an x86 ``pause`` (about 26 ns here; 10-140 cycles across x86 generations), a
-bare read elsewhere (so helpers nap sooner)."""
+"""Idle rounds a helper spins through after each job posted before it naps, and rounds the calling thread waits
+for a helper's chunk before it naps between looks: each an x86 ``pause`` (about 26 ns here; 10-140 cycles across
+x86 generations), a bare read elsewhere (so helpers nap sooner)."""
 MIN_NAP_US, MAX_NAP_US = 50, 10_000
 """A napping helper's first and longest ``usleep`` (us); the longest also bounds how long stopping it takes."""
 
@@ -325,6 +326,22 @@ def _split_call(
     return _caller_side(control, table, args, chunks, spin_rounds, naps, literally(layout), literally(batch))
 
 
+@njit(cache=True, nogil=True, inline="always")
+def _idle_round(
+    job: int, seen: int, idle: int, nap: int, spin_rounds: int, naps: tuple[int, int, int]
+) -> tuple[int, int, int, int]:
+    """A helper's round with no chunk to take, the current job numbered ``job``: ``(seen, idle, nap, sleep)`` after
+    it, from the job ``seen`` last, the ``idle`` rounds since and the ``nap`` (us) due. It spins (``sleep`` 0: a
+    ``pause``) for ``spin_rounds`` rounds, then naps ``sleep`` us, ``naps[1]`` doubling up to ``naps[2]``. A job
+    posted since it last looked, even one whose chunks the calling thread took while it napped, starts the spin
+    again: in a loop of steps the next job likely comes as soon, and naps that kept doubling would miss it."""
+    if job != seen:
+        return job, 1, naps[1], 0
+    if idle < spin_rounds:
+        return seen, idle + 1, nap, 0
+    return seen, idle, min(2 * nap, naps[2]), nap
+
+
 @njit(cache=True, nogil=True)
 def _serve(
     control: np.ndarray,
@@ -337,9 +354,8 @@ def _serve(
     batch: str,
 ) -> None:
     """A helper's loop until its ``_STOP`` slot is set: take chunks of the jobs posted in ``control`` and run them;
-    between jobs, spin ``spin_rounds`` rounds, then nap ``usleep`` at address ``naps[0]`` for ``naps[1]`` us,
-    doubling up to ``naps[2]``."""
-    idle, nap = 0, naps[1]
+    between them, spin and nap as :func:`_idle_round` says (``naps[0]`` is the address of ``usleep``)."""
+    seen, idle, nap = _load_acquire(control, _TICKET) >> 32, 0, naps[1]
     while _load_acquire(control, _STOP) == 0:
         ticket = _load_acquire(control, _TICKET)
         chunk = ticket & _CHUNK_MASK
@@ -348,13 +364,13 @@ def _serve(
                 result = _helper_side(table, scalars, chunk, chunks, literally(layout), literally(batch))
                 _atomic_update(control, _RESULT, result, "or")
                 _atomic_update(control, _FINISHED, 1, "add")
-                idle, nap = 0, naps[1]
-        elif idle < spin_rounds:
-            idle += 1
-            _pause()
+                seen, idle, nap = ticket >> 32, 0, naps[1]
+            continue
+        seen, idle, nap, sleep = _idle_round(ticket >> 32, seen, idle, nap, spin_rounds, naps)
+        if sleep:
+            _usleep(naps[0], sleep)
         else:
-            _usleep(naps[0], nap)
-            nap = min(2 * nap, naps[2])
+            _pause()
 
 
 def _compiled(dispatcher: Any, signature: tuple[Any, ...]) -> Callable[..., Any] | None:
