@@ -67,6 +67,63 @@ def test_a_split_step_gives_the_one_thread_step_bit_for_bit(env_id: str) -> None
     single.close()
 
 
+def _restart_of_some_rows(
+    env_id: str, num_envs: int, helpers: int = 0
+) -> tuple[gym.vector.VectorEnv, np.ndarray] | None:
+    """The vector env of ``env_id`` (``num_envs`` sub-envs whose steps use ``helpers`` helper threads, one step
+    taken) and every third row, where its task has a restart kernel for some rows (None where it has one for every
+    row only, or none)."""
+    env = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point")
+    env.unwrapped._split_helpers = helpers
+    env.reset(seed=5)
+    env.step(env.action_space.sample())
+    rows = np.arange(0, num_envs, 3)
+    unwrapped = env.unwrapped
+    if unwrapped.task.restart_call(unwrapped.state, rows, np.empty_like(env.observation_space.low)) is None:
+        env.close()
+        return None
+    return env, rows
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_a_restart_kernel_of_some_rows_writes_those_rows_only(env_id: str) -> None:
+    """What lets a split step run it over parts of the rows at once (``VegymVectorEnv._restart_rows``)."""
+    made = _restart_of_some_rows(env_id, 30)
+    if made is None:
+        pytest.skip("no restart kernel for some rows")
+    env, rows = made
+    state, others = env.unwrapped.state, np.setdiff1d(np.arange(30), rows)
+    before = {name: value.copy() for name, value in state.items()}
+    obs = np.full(env.observation_space.shape, np.nan, np.float32)
+    kernel, args = env.unwrapped.task.restart_call(state, rows, obs)
+    kernel(*args)
+    assert not np.isnan(obs[rows]).any()
+    assert np.isnan(obs[others]).all()
+    for name, value in state.items():
+        np.testing.assert_array_equal(value[others], before[name][others], err_msg=name)
+    env.close()
+
+
+@pytest.mark.parametrize("env_id", ENV_IDS)
+def test_a_split_restart_gives_the_one_thread_restart_bit_for_bit(env_id: str) -> None:
+    made = _restart_of_some_rows(env_id, SPLIT_ENVS, helpers=1)
+    if made is None:
+        pytest.skip("no restart kernel for some rows")
+    env, rows = made
+    unwrapped = env.unwrapped
+    assert len(rows) >= vegym.envs.base.SPLIT_RESTART_ROWS
+    states = [{name: value.copy() for name, value in unwrapped.state.items()} for _ in range(2)]
+    obs = [np.zeros(env.observation_space.shape, np.float32) for _ in range(2)]
+    kernel, args = unwrapped.task.restart_call(states[0], rows, obs[0])
+    assert unwrapped._split.fits(kernel, args, job=1)
+    unwrapped._restart_rows(states[0], rows, obs[0])
+    unwrapped.task.restart(states[1], rows, obs[1])
+    np.testing.assert_array_equal(obs[0], obs[1])
+    for name in states[0]:
+        np.testing.assert_array_equal(states[0][name], states[1][name], err_msg=name)
+    env.close()
+
+
 def test_closing_the_env_stops_its_helpers_and_dropping_it_does_too() -> None:
     before = len(_helpers())
     env = _vector_env("vegym/Aircraft-v0", 1)
@@ -335,6 +392,14 @@ def test_a_row_array_passed_whole_cannot_be_split() -> None:
     """Every chunk would write all of it at once: an argument as long as the split ones must be split too."""
     with pytest.raises(ValueError, match="as many rows"):
         SplitKernel(_divide, _divide_arguments(), [True, False, False, True], 1)
+
+
+def test_a_second_call_without_one_length_of_split_arguments_cannot_be_split() -> None:
+    args = _divide_arguments()
+    for marks in ([False, False, False, False], [True, True, False, False]):  # none; rows of two lengths
+        second_args = (args[0], args[1][:-1], args[2], args[3]) if any(marks) else args
+        with pytest.raises(ValueError, match="cannot be split"):
+            SplitKernel(_divide, args, [True, True, False, True], 1, second=(_divide, second_args, marks))
 
 
 def test_a_kernel_that_is_not_cached_on_disk_cannot_be_split() -> None:

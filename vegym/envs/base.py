@@ -53,6 +53,9 @@ thread, where a pool's threads would cost more than they save (handing a chunk t
 130 us on the 2-core VM this was measured on, a whole 8,192-env step of the SIMD kernels 0.3-0.6 ms). Steps, the
 hot path, split from ``kernel_split.SPLIT_MIN_ROWS`` rows per core instead, on helper threads that spin between
 steps."""
+SPLIT_RESTART_ROWS = 1024
+"""Restarts of at least this many rows after a split step are split too, between the calling thread and the step's
+helpers, which are still spinning."""
 
 
 class Task(abc.ABC, Generic[P]):
@@ -146,7 +149,10 @@ class Task(abc.ABC, Generic[P]):
     def restart_call(self, state: State, rows: np.ndarray, obs: np.ndarray) -> KernelCall | None:
         """The one kernel call that does :meth:`restart`'s work for these arguments, or None (then
         :meth:`restart_by_parts` does it). Tasks whose episodes restart often (short episodes) return one; the
-        single env binds it once, as :meth:`step_call`'s."""
+        single env binds it once, as :meth:`step_call`'s. A large vector env runs it over parts of ``rows`` at once
+        (``SPLIT_RESTART_ROWS``), passing the other arguments whole: for fewer rows than the batch, the kernel must
+        read and write the rows ``rows`` of the state and of ``obs`` only (and the task's constants); one that
+        observes every row returns None there (Projectile's)."""
         return None
 
     @abc.abstractmethod
@@ -964,7 +970,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             every = self._every
             _in_chunks(n, lambda r: self.task.restart(rows_of(state, r), every[: r.stop - r.start], out["obs"][r]))
         elif len(rows):
-            self.task.restart(state, rows, out["obs"])
+            self._restart_rows(state, rows, out["obs"])
         if self.render_mode is not None:
             self._record_renderers(rows, info)
         return out["obs"], reward, terminated, truncated, info
@@ -975,8 +981,9 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         threads at once (:class:`kernel_split.SplitKernel`), where it can be split: its arguments that are the
         arrays of ``state``, ``out`` and ``actions`` themselves are split by rows, the others passed whole; and
         each chunk copies its rows of the state arrays that the info reports (but ``step``, which the bookkeeping
-        after the kernel counts), for the info (each thread copies the rows it wrote). Returns those copies by the
-        ids of their state arrays (none where not split)."""
+        after the kernel counts), for the info (each thread copies the rows it wrote). The split's second call is
+        the task's restart kernel, where it has one for some rows (:meth:`_restart_rows`). Returns those copies by
+        the ids of their state arrays (none where not split)."""
         if self._split_helpers < 1:
             self.task.step(state, actions, out)
             return {}
@@ -993,14 +1000,29 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             sources = [k for k, arg in enumerate(args) if id(arg) in reported]
             copies = tuple(np.empty_like(args[k]) for k in sources)
             batch = [id(arg) in rows for arg in args] + [True] * len(copies)
+            restart_rows = np.zeros(2, np.intp)  # any rows: the call's types are what the split compiles for
+            restart = self.task.restart_call(state, restart_rows, out["obs"])
+            second = None if restart is None else (*restart, [arg is restart_rows for arg in restart[1]])
             try:
-                split = SplitKernel(kernel, (*args, *copies), batch, self._split_helpers, sources)
+                split = SplitKernel(kernel, (*args, *copies), batch, self._split_helpers, sources, second)
             except ValueError:  # not splittable: this env steps in one thread from now on
                 self._split_helpers, split, copies = 0, None, ()
             self._split = split
         if kernel(*args) if split is None else split((*args, *copies)):
             self.task.after_step(state, out)
         return {} if split is None else {id(args[k]): copy for k, copy in zip(split.copies, copies, strict=True)}
+
+    def _restart_rows(self, state: State, rows: np.ndarray, obs: np.ndarray) -> None:
+        """:meth:`Task.restart` of the rows ``rows``: split between this thread and the step's helpers (the second
+        call of :class:`kernel_split.SplitKernel`, over halves of ``rows``) where there are ``SPLIT_RESTART_ROWS``
+        or more of them and the step is split, else in this thread."""
+        split = self._split
+        if split is not None and len(rows) >= SPLIT_RESTART_ROWS:
+            call = self.task.restart_call(state, rows, obs)
+            if call is not None and split.fits(*call, job=1):
+                split(call[1], job=1)
+                return
+        self.task.restart(state, rows, obs)
 
     def close_extras(self, **kwargs: Any) -> None:
         """Stop the step's helper threads, for good: steps after ``close()`` run in the calling thread."""

@@ -51,11 +51,12 @@ x86 generations), a bare read elsewhere (so helpers nap sooner)."""
 MIN_NAP_US, MAX_NAP_US = 50, 10_000
 """A napping helper's first and longest ``usleep`` (us); the longest also bounds how long stopping it takes."""
 
-_TICKET, _FINISHED, _RESULT, _FAILED, _STOP = (8 * k for k in range(5))
+_TICKET, _FINISHED, _RESULT, _FAILED, _STOP, _KIND = (8 * k for k in range(6))
 """Slots of the control array (int64), each in a 64-byte cache line of its own: the ticket ``job << 32 | chunk``,
 the next chunk of the current job to take; how many of its chunks are finished; whether a chunk's kernel returned
-true; whether a helper's kernel raised; whether the helpers are to stop (after the chunk they hold)."""
-_SLOTS = _STOP + 8
+true; whether a helper's kernel raised; whether the helpers are to stop (after the chunk they hold); which of the
+split's calls the current job runs (0 the first, 1 the second)."""
+_SLOTS = _KIND + 8
 _CHUNK_MASK = (1 << 32) - 1
 _JOB_MASK = (1 << 31) - 1
 """Job numbers wrap around at 2**31."""
@@ -176,6 +177,7 @@ def _caller_side(
     chunks: int,
     spin_rounds: int,
     naps: tuple[int, int, int],
+    kind: int,
     layout: str,
     batch: str,
 ) -> tuple[bool, bool]:
@@ -223,11 +225,11 @@ _BOUNDS = "lo, hi = n * chunk // chunks, n * (chunk + 1) // chunks"
 
 
 @overload(_caller_side)
-def _caller_side_impl(control, table, args, chunks, spin_rounds, naps, layout, batch):  # noqa: ANN001, ANN202
+def _caller_side_impl(control, table, args, chunks, spin_rounds, naps, kind, layout, batch):  # noqa: ANN001, ANN202
     """Write the arrays' addresses and shapes into ``table`` (``[address, *shape]`` per array), post a job of
-    ``chunks`` chunks, take chunks until none is left, then wait for the helpers' chunks: ``spin_rounds`` rounds,
-    then naps of ``naps[1]`` us (``usleep`` at address ``naps[0]``) between looks. Returns whether a chunk's
-    kernel returned true and whether a helper's kernel raised."""
+    ``chunks`` chunks of the split's call ``kind`` (0 or 1), take chunks until none is left, then wait for the
+    helpers' chunks: ``spin_rounds`` rounds, then naps of ``naps[1]`` us (``usleep`` at address ``naps[0]``)
+    between looks. Returns whether a chunk's kernel returned true and whether a helper's kernel raised."""
     if not (isinstance(layout, types.StringLiteral) and isinstance(batch, types.StringLiteral)):
         return None
     kernel, fields, arity, copies = _fields(layout, batch)
@@ -243,9 +245,10 @@ def _caller_side_impl(control, table, args, chunks, spin_rounds, naps, layout, b
     copy_rows = "".join(f"; _copy(args[{source}][lo:hi], args[{to}][lo:hi])" for source, to in copies)
     first = next(k for k, (_, _, split) in enumerate(fields) if split)
     source = f"""
-def generated(control, table, args, chunks, spin_rounds, naps, layout, batch):
+def generated(control, table, args, chunks, spin_rounds, naps, kind, layout, batch):
     n = args[{first}].shape[0]
     {"; ".join(writes)}
+    control[{_KIND}] = kind
     control[{_FINISHED}] = 0
     control[{_RESULT}] = 0
     _store_release(control, {_TICKET}, (((_load_acquire(control, {_TICKET}) >> 32) + 1) & {_JOB_MASK}) << 32)
@@ -320,10 +323,11 @@ def _split_call(
     chunks: int,
     spin_rounds: int,
     naps: tuple[int, int, int],
+    kind: int,
     layout: str,
     batch: str,
 ) -> tuple[bool, bool]:
-    return _caller_side(control, table, args, chunks, spin_rounds, naps, literally(layout), literally(batch))
+    return _caller_side(control, table, args, chunks, spin_rounds, naps, kind, literally(layout), literally(batch))
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -345,23 +349,33 @@ def _idle_round(
 @njit(cache=True, nogil=True)
 def _serve(
     control: np.ndarray,
-    table: np.ndarray,
+    tables: tuple[np.ndarray, np.ndarray],
     scalars: tuple[Any, ...],
+    second_scalars: tuple[Any, ...],
     chunks: int,
     spin_rounds: int,
     naps: tuple[int, int, int],
     layout: str,
     batch: str,
+    second_layout: str,
+    second_batch: str,
 ) -> None:
-    """A helper's loop until its ``_STOP`` slot is set: take chunks of the jobs posted in ``control`` and run them;
-    between them, spin and nap as :func:`_idle_round` says (``naps[0]`` is the address of ``usleep``)."""
+    """A helper's loop until its ``_STOP`` slot is set: take chunks of the jobs posted in ``control`` and run them,
+    by the first call's ``tables[0]``, ``scalars``, ``layout`` and ``batch``, or where the ``_KIND`` slot says so
+    the second's; between them, spin and nap as :func:`_idle_round` says (``naps[0]`` is the address of
+    ``usleep``)."""
     seen, idle, nap = _load_acquire(control, _TICKET) >> 32, 0, naps[1]
     while _load_acquire(control, _STOP) == 0:
         ticket = _load_acquire(control, _TICKET)
         chunk = ticket & _CHUNK_MASK
         if chunk < chunks:
-            if _compare_exchange(control, _TICKET, ticket, ticket + 1):
-                result = _helper_side(table, scalars, chunk, chunks, literally(layout), literally(batch))
+            if _compare_exchange(control, _TICKET, ticket, ticket + 1):  # the job's kind was stored before its ticket
+                if control[_KIND] == 0:
+                    result = _helper_side(tables[0], scalars, chunk, chunks, literally(layout), literally(batch))
+                else:
+                    result = _helper_side(
+                        tables[1], second_scalars, chunk, chunks, literally(second_layout), literally(second_batch)
+                    )
                 _atomic_update(control, _RESULT, result, "or")
                 _atomic_update(control, _FINISHED, 1, "add")
                 seen, idle, nap = ticket >> 32, 0, naps[1]
@@ -383,6 +397,41 @@ def _compiled(dispatcher: Any, signature: tuple[Any, ...]) -> Callable[..., Any]
     return None if compiled is None else compiled.entry_point
 
 
+class _Job:
+    """One call that a split runs over chunks: its kernel, packed layout and scalars, the ``batch`` literal (see
+    :func:`_fields`), the table of its arrays' addresses and shapes and the calling thread's compiled side."""
+
+    def __init__(
+        self, kernel: Callable[..., Any], args: tuple[Any, ...], batch: str, control: np.ndarray, naps: tuple
+    ) -> None:
+        packed = kernel_call.packed_layout(kernel, args)
+        if packed is None:
+            raise ValueError(f"{kernel!r} cannot be split over these arguments")
+        self.kernel, self.batch = kernel, batch
+        self.layout, self.scalars = packed
+        self.fingerprint, self._scalars_text = compute_fingerprint(args), repr(self.scalars)
+        self._scalar_positions = tuple(k for k, arg in enumerate(args) if not isinstance(arg, np.ndarray))
+        self.table = np.zeros(sum(1 + arg.ndim for arg in args if isinstance(arg, np.ndarray)), np.intp)
+        typeof = _split_call.typeof_pyval
+        self.call = _compiled(
+            _split_call,
+            (
+                typeof(control), typeof(self.table), typeof(args), types.intp, types.intp, typeof(naps), types.intp,
+                types.literal(self.layout), types.literal(batch),
+            ),
+        )  # fmt: skip
+        if self.call is None:
+            raise ValueError(f"{kernel!r} cannot be split: numba's cache has no code for its layout")
+
+    def fits(self, kernel: Callable[..., Any], args: tuple[Any, ...]) -> bool:
+        """Whether this job makes the call ``kernel(*args)`` (see :meth:`SplitKernel.fits`)."""
+        return (
+            kernel is self.kernel
+            and compute_fingerprint(args) == self.fingerprint
+            and repr(tuple(args[k] for k in self._scalar_positions)) == self._scalars_text
+        )
+
+
 class SplitKernel:
     """``kernel(*args)`` over chunks of rows, one per thread: the calling thread and ``helpers`` helper threads,
     for calls whose arguments have the types of ``args`` (:meth:`fits`). The ``batch`` arguments (true) are arrays
@@ -391,7 +440,10 @@ class SplitKernel:
     those only. With ``copies``, the positions of batch arguments, the last ``len(copies)`` arguments are not the
     kernel's but arrays of the same dtypes and shapes, batch arguments too, into which each chunk copies its rows
     of those arguments after its kernel (by the thread that wrote them, while they are in its cache; ``TypeError``
-    for copies of other arguments or into other arrays). :meth:`close` (or dropping it) stops the helpers.
+    for copies of other arguments or into other arrays). With ``second``, a call ``(kernel, args, batch)`` that the
+    same helpers run too (``job=1``): its batch arguments are split by their first axis in the same way, but the
+    others may have as many rows (row indices split between chunks that write those rows of whole arrays, say);
+    each chunk must write what no other chunk writes or reads. :meth:`close` (or dropping it) stops the helpers.
     ``ValueError`` where the kernel cannot be split (then call it unsplit): not a kernel numba caches on disk,
     arguments the shim cannot take, a whole argument with as many rows as the batch ones (a row array that is not
     marked), no ``usleep``, or no thread to be had."""
@@ -403,11 +455,12 @@ class SplitKernel:
         batch: Sequence[bool],
         helpers: int,
         copies: Sequence[int] = (),
+        second: tuple[Callable[..., Any], tuple[Any, ...], Sequence[bool]] | None = None,
     ) -> None:
-        packed = kernel_call.packed_layout(kernel, args)
         rows = {len(arg) for arg, split in zip(args, batch, strict=True) if split}
         whole = [arg for arg, split in zip(args, batch, strict=True) if isinstance(arg, np.ndarray) and not split]
-        if compute_fingerprint is None or not _USLEEP or packed is None or len(rows) != 1 or helpers < 1:
+        second_rows = second is not None and len({len(a) for a, split in zip(*second[1:], strict=True) if split}) != 1
+        if compute_fingerprint is None or not _USLEEP or len(rows) != 1 or second_rows or helpers < 1:
             raise ValueError(f"{kernel!r} cannot be split over these arguments on this platform")
         if any(arg.shape[0] in rows for arg in whole):
             raise ValueError(f"{kernel!r} cannot be split: a whole argument has as many rows as the split ones")
@@ -427,36 +480,41 @@ class SplitKernel:
                     "writeable batch array of its dtype and shape"
                 )
         self.kernel, self.chunks, self.copies = kernel, helpers + 1, tuple(copies)
-        self.layout, self.scalars = packed
-        self.batch = "".join("b" if split else "-" for split in batch) + ">" + ",".join(map(str, copies))
-        self.fingerprint, self._scalars_text = compute_fingerprint(args), repr(self.scalars)
-        self._scalar_positions = tuple(k for k, arg in enumerate(args) if not isinstance(arg, np.ndarray))
         self.pid = os.getpid()
         self.control = _aligned_zeros(_SLOTS)
         self.control[_TICKET] = self.chunks  # job 0, every chunk taken: nothing to do until the first call
-        self.table = np.zeros(sum(1 + arg.ndim for arg in args if isinstance(arg, np.ndarray)), np.intp)
-        typeof = _split_call.typeof_pyval
         self._naps = (_USLEEP, MIN_NAP_US, MAX_NAP_US)
-        common = (typeof(self.control), typeof(self.table))
-        literals = (types.literal(self.layout), types.literal(self.batch))
-        self._call = _compiled(
-            _split_call, (*common, typeof(args), types.intp, types.intp, typeof(self._naps), *literals)
-        )
+        marks = "".join("b" if split else "-" for split in batch) + ">" + ",".join(map(str, copies))
+        self.jobs = [_Job(kernel, args, marks, self.control, self._naps)]
+        """The calls this split makes: ``kernel(*args)``'s, and ``second``'s if given."""
+        if second is not None:
+            second_marks = "".join("b" if split else "-" for split in second[2]) + ">"
+            self.jobs.append(_Job(*second[:2], second_marks, self.control, self._naps))
+        first, last = self.jobs[0], self.jobs[-1]
+        typeof = _split_call.typeof_pyval
         serve = _compiled(
-            _serve, (*common, typeof(self.scalars), types.intp, types.intp, typeof(self._naps), *literals)
-        )
-        if self._call is None or serve is None:
+            _serve,
+            (
+                typeof(self.control), typeof((first.table, last.table)), typeof(first.scalars),
+                typeof(last.scalars), types.intp, types.intp, typeof(self._naps), types.literal(first.layout),
+                types.literal(first.batch), types.literal(last.layout), types.literal(last.batch),
+            ),
+        )  # fmt: skip
+        if serve is None:
             raise ValueError(f"{kernel!r} cannot be split: numba's cache has no code for its layout")
         self.errors: list[BaseException] = []
         threads: list[threading.Thread] = []
         self.close = weakref.finalize(self, _stop, self.control, threads)
         """Stop the helpers (each after the chunk it holds; later calls run every chunk in the calling thread)."""
-        serve_args = (self.control, self.table, self.scalars, self.chunks, self._naps, self.layout, self.batch)
+        serve_args = (
+            self.control, (first.table, last.table), first.scalars, last.scalars, self.chunks, SPIN_ROUNDS,
+            self._naps, first.layout, first.batch, last.layout, last.batch,
+        )  # fmt: skip
         try:
             for k in range(helpers):
                 threads.append(
                     threading.Thread(
-                        target=_help, args=(serve, *serve_args, self.errors), name=f"vegym-helper-{k}", daemon=True
+                        target=_help, args=(serve, serve_args, self.errors), name=f"vegym-helper-{k}", daemon=True
                     )
                 )
                 threads[-1].start()
@@ -465,26 +523,25 @@ class SplitKernel:
             self.close()
             raise ValueError(f"{kernel!r} cannot be split: {error}") from error
 
-    def fits(self, kernel: Callable[..., Any], args: tuple[Any, ...]) -> bool:
-        """Whether this split makes the call ``kernel(*args)``: the same kernel, arguments of the same types (numba's
-        fingerprint: dtype, dimensions, layout, writability), scalars of the same types and values, and this
-        process (a forked child has none of its parent's helpers)."""
-        return (
-            kernel is self.kernel
-            and compute_fingerprint(args) == self.fingerprint
-            and self.pid == os.getpid()
-            and repr(tuple(args[k] for k in self._scalar_positions)) == self._scalars_text
-        )
+    def fits(self, kernel: Callable[..., Any], args: tuple[Any, ...], job: int = 0) -> bool:
+        """Whether this split makes the call ``kernel(*args)`` as its job ``job`` (0: the first call, 1: the
+        second): the same kernel, arguments of the same types (numba's fingerprint: dtype, dimensions, layout,
+        writability), scalars of the same types and values, and this process (a forked child has none of its
+        parent's helpers)."""
+        return job < len(self.jobs) and self.jobs[job].fits(kernel, args) and self.pid == os.getpid()
 
-    def __call__(self, args: tuple[Any, ...]) -> bool:
-        """``kernel(*args)`` over the chunks (``args`` must :meth:`fit <fits>`): whether a chunk's kernel returned
-        true. A kernel's error is raised here: from the calling thread's chunk at once (the chunks it had not
-        taken are then not stepped), from a helper's once the others are done; then the helpers stop, and later
-        calls run in the calling thread. Either way the step is incomplete, as after an error in one thread."""
+    def __call__(self, args: tuple[Any, ...], job: int = 0) -> bool:
+        """Its job ``job``'s kernel over the chunks of ``args`` (which must :meth:`fit <fits>`): whether a chunk's
+        kernel returned true. A kernel's error is raised here: from the calling thread's chunk at once (the chunks
+        it had not taken are then not run), from a helper's once the others are done; then the helpers stop, and
+        later calls run in the calling thread. Either way the call is incomplete, as after an error in one
+        thread."""
+        target = self.jobs[job]
         try:
-            result, failed = self._call(
-                self.control, self.table, args, self.chunks, SPIN_ROUNDS, self._naps, self.layout, self.batch
-            )
+            result, failed = target.call(
+                self.control, target.table, args, self.chunks, SPIN_ROUNDS, self._naps, job, target.layout,
+                target.batch,
+            )  # fmt: skip
         except Exception:  # the calling thread's chunk raised (a KeyboardInterrupt comes after the call returned)
             self.close()
             raise
@@ -501,24 +558,14 @@ def _aligned_zeros(count: int) -> np.ndarray:
     return padded[start : start + count]
 
 
-def _help(
-    serve: Callable[..., None],
-    control: np.ndarray,
-    table: np.ndarray,
-    scalars: tuple[Any, ...],
-    chunks: int,
-    naps: tuple[int, int, int],
-    layout: str,
-    batch: str,
-    errors: list[BaseException],
-) -> None:
-    """A helper thread: :func:`_serve` until stopped; a kernel's error goes into ``errors`` and the ``_FAILED``
-    slot."""
+def _help(serve: Callable[..., None], args: tuple[Any, ...], errors: list[BaseException]) -> None:
+    """A helper thread: ``serve(*args)`` (:func:`_serve`, whose first argument is the control array) until stopped;
+    a kernel's error goes into ``errors`` and the ``_FAILED`` slot."""
     try:
-        serve(control, table, scalars, chunks, SPIN_ROUNDS, naps, layout, batch)
+        serve(*args)
     except BaseException as error:  # noqa: BLE001  (handed to the calling thread, which raises it)
         errors.append(error)
-        control[_FAILED] = 1
+        args[0][_FAILED] = 1
 
 
 def _stop(control: np.ndarray, threads: list[threading.Thread]) -> None:
