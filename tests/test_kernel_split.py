@@ -106,18 +106,27 @@ def test_a_restart_kernel_of_some_rows_writes_those_rows_only(env_id: str) -> No
 
 @pytest.mark.parametrize("env_id", ENV_IDS)
 def test_a_split_restart_gives_the_one_thread_restart_bit_for_bit(env_id: str) -> None:
-    made = _restart_of_some_rows(env_id, SPLIT_ENVS, helpers=1)
-    if made is None:
-        pytest.skip("no restart kernel for some rows")
-    env, rows = made
-    unwrapped = env.unwrapped
-    assert len(rows) >= vegym.envs.base.SPLIT_RESTART_ROWS
+    """Of some rows (every third) where the task's restart kernel takes some rows, else of every row."""
+    env = _vector_env(env_id, 1)
+    env.reset(seed=5)
+    env.step(env.action_space.sample())
+    unwrapped, task = env.unwrapped, env.unwrapped.task
+    restarts = unwrapped._split_restarts
+    if restarts is None:
+        env.close()
+        pytest.skip("no restart kernel")
+    if restarts == "some":
+        rows, call_rows = np.arange(0, SPLIT_ENVS, 3), np.arange(0, SPLIT_ENVS, 3)
+        assert len(rows) >= vegym.envs.base.SPLIT_RESTART_ROWS
+        restart = unwrapped._restart_rows
+    else:
+        rows, call_rows = np.arange(SPLIT_ENVS), unwrapped._chunk_rows
+        restart = lambda state, _, obs: unwrapped._restart_every_row(state, obs)  # noqa: E731
     states = [{name: value.copy() for name, value in unwrapped.state.items()} for _ in range(2)]
     obs = [np.zeros(env.observation_space.shape, np.float32) for _ in range(2)]
-    kernel, args = unwrapped.task.restart_call(states[0], rows, obs[0])
-    assert unwrapped._split.fits(kernel, args, job=1)
-    unwrapped._restart_rows(states[0], rows, obs[0])
-    unwrapped.task.restart(states[1], rows, obs[1])
+    assert unwrapped._split.fits(*task.restart_call(states[0], call_rows, obs[0]), job=1)
+    restart(states[0], rows, obs[0])
+    task.restart(states[1], rows, obs[1])
     np.testing.assert_array_equal(obs[0], obs[1])
     for name in states[0]:
         np.testing.assert_array_equal(states[0][name], states[1][name], err_msg=name)

@@ -740,6 +740,12 @@ if hasattr(os, "register_at_fork"):
     os.register_at_fork(after_in_child=_forget_pool)
 
 
+def _chunk_rows(n: int, chunks: int) -> np.ndarray:
+    """For each of ``n`` rows, its index within its chunk, of ``chunks`` as :class:`kernel_split.SplitKernel` splits
+    them."""
+    return np.concatenate([np.arange(n * (k + 1) // chunks - n * k // chunks) for k in range(chunks)])
+
+
 def _in_chunks(n: int, run: Callable[[slice], None]) -> None:
     """``run(rows)`` over row slices that cover ``range(n)``: for large ``n`` one chunk of at least
     ``PARALLEL_MIN_ENVS // 2`` rows per CPU core, on threads. Returns once every chunk has finished."""
@@ -836,6 +842,10 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         self._renderers: list[Any] = []
         self._split_helpers = _split_helpers(num_envs)
         self._split: SplitKernel | None = None
+        self._split_restarts: str | None = None
+        """Which restarts the split runs too (:meth:`_restart_call_to_split`)."""
+        self._chunk_rows = self._every
+        """For each row, its index in its chunk of the split (:func:`_chunk_rows`)."""
 
     def reset(
         self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None
@@ -967,8 +977,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         if len(rows):
             self._renew_episode_constants(every_row=every_resets)
         if every_resets:
-            every = self._every
-            _in_chunks(n, lambda r: self.task.restart(rows_of(state, r), every[: r.stop - r.start], out["obs"][r]))
+            self._restart_every_row(state, out["obs"])
         elif len(rows):
             self._restart_rows(state, rows, out["obs"])
         if self.render_mode is not None:
@@ -982,8 +991,8 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         arrays of ``state``, ``out`` and ``actions`` themselves are split by rows, the others passed whole; and
         each chunk copies its rows of the state arrays that the info reports (but ``step``, which the bookkeeping
         after the kernel counts), for the info (each thread copies the rows it wrote). The split's second call is
-        the task's restart kernel, where it has one for some rows (:meth:`_restart_rows`). Returns those copies by
-        the ids of their state arrays (none where not split)."""
+        the task's restart kernel (:meth:`_restart_call_to_split`). Returns those copies by the ids of their state
+        arrays (none where not split)."""
         if self._split_helpers < 1:
             self.task.step(state, actions, out)
             return {}
@@ -1000,9 +1009,8 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             sources = [k for k, arg in enumerate(args) if id(arg) in reported]
             copies = tuple(np.empty_like(args[k]) for k in sources)
             batch = [id(arg) in rows for arg in args] + [True] * len(copies)
-            restart_rows = np.zeros(2, np.intp)  # any rows: the call's types are what the split compiles for
-            restart = self.task.restart_call(state, restart_rows, out["obs"])
-            second = None if restart is None else (*restart, [arg is restart_rows for arg in restart[1]])
+            self._chunk_rows = _chunk_rows(self.num_envs, self._split_helpers + 1)
+            self._split_restarts, second = self._restart_call_to_split(state, out["obs"])
             try:
                 split = SplitKernel(kernel, (*args, *copies), batch, self._split_helpers, sources, second)
             except ValueError:  # not splittable: this env steps in one thread from now on
@@ -1012,17 +1020,47 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             self.task.after_step(state, out)
         return {} if split is None else {id(args[k]): copy for k, copy in zip(split.copies, copies, strict=True)}
 
+    def _restart_call_to_split(
+        self, state: State, obs: np.ndarray
+    ) -> tuple[str | None, tuple[Callable[..., Any], tuple[Any, ...], list[bool]] | None]:
+        """Which restarts the split runs, ``"some"`` rows, ``"every"`` row or None, and its second call, for
+        :class:`kernel_split.SplitKernel`: the task's restart kernel for some rows, split by halves of the rows'
+        indices, the other arguments whole (:meth:`_restart_rows`); or, for a task whose kernel restarts every row
+        only, that kernel split by rows as the step is, each chunk's row indices its own from 0
+        (:meth:`_restart_every_row`)."""
+        some = np.zeros(2, np.intp)  # any rows: the call's types are what the split compiles for
+        call = self.task.restart_call(state, some, obs)
+        if call is not None:
+            return "some", (*call, [arg is some for arg in call[1]])
+        call = self.task.restart_call(state, self._chunk_rows, obs)
+        if call is None:
+            return None, None
+        rows = {id(array) for array in (*state.values(), obs, self._chunk_rows)}
+        return "every", (*call, [id(arg) in rows for arg in call[1]])
+
     def _restart_rows(self, state: State, rows: np.ndarray, obs: np.ndarray) -> None:
         """:meth:`Task.restart` of the rows ``rows``: split between this thread and the step's helpers (the second
         call of :class:`kernel_split.SplitKernel`, over halves of ``rows``) where there are ``SPLIT_RESTART_ROWS``
         or more of them and the step is split, else in this thread."""
         split = self._split
-        if split is not None and len(rows) >= SPLIT_RESTART_ROWS:
+        if split is not None and self._split_restarts == "some" and len(rows) >= SPLIT_RESTART_ROWS:
             call = self.task.restart_call(state, rows, obs)
             if call is not None and split.fits(*call, job=1):
                 split(call[1], job=1)
                 return
         self.task.restart(state, rows, obs)
+
+    def _restart_every_row(self, state: State, obs: np.ndarray) -> None:
+        """:meth:`Task.restart` of every row: split between this thread and the step's helpers, by rows, where the
+        step is split and the split's second call restarts every row; else in chunks (:func:`_in_chunks`)."""
+        split = self._split
+        if split is not None and self._split_restarts == "every":
+            call = self.task.restart_call(state, self._chunk_rows, obs)
+            if call is not None and split.fits(*call, job=1):
+                split(call[1], job=1)
+                return
+        every = self._every
+        _in_chunks(self.num_envs, lambda r: self.task.restart(rows_of(state, r), every[: r.stop - r.start], obs[r]))
 
     def close_extras(self, **kwargs: Any) -> None:
         """Stop the step's helper threads, for good: steps after ``close()`` run in the calling thread."""
