@@ -149,10 +149,11 @@ class Task(abc.ABC, Generic[P]):
     def restart_call(self, state: State, rows: np.ndarray, obs: np.ndarray) -> KernelCall | None:
         """The one kernel call that does :meth:`restart`'s work for these arguments, or None (then
         :meth:`restart_by_parts` does it). Tasks whose episodes restart often (short episodes) return one; the
-        single env binds it once, as :meth:`step_call`'s. A large vector env runs it over parts of ``rows`` at once
-        (``SPLIT_RESTART_ROWS``), passing the other arguments whole: for fewer rows than the batch, the kernel must
-        read and write the rows ``rows`` of the state and of ``obs`` only (and the task's constants); one that
-        observes every row returns None there (Projectile's)."""
+        single env binds it once, as :meth:`step_call`'s. A large vector env runs it in its step's threads at once
+        (:meth:`VegymVectorEnv._restart_call_to_split`): for fewer rows than the batch, over parts of ``rows``
+        (``SPLIT_RESTART_ROWS`` or more), passing the other arguments whole, so the kernel must read and write the
+        rows ``rows`` of the state and of ``obs`` only (and the task's constants), and one that observes every row
+        returns None there (Projectile's); for every row, over chunks of rows as :meth:`step_call`'s."""
         return None
 
     @abc.abstractmethod
