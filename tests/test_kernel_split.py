@@ -403,12 +403,14 @@ def test_a_row_array_passed_whole_cannot_be_split() -> None:
         SplitKernel(_divide, _divide_arguments(), [True, False, False, True], 1)
 
 
-def test_a_second_call_without_one_length_of_split_arguments_cannot_be_split() -> None:
+def test_a_second_call_without_one_length_of_split_arguments_is_left_out() -> None:
     args = _divide_arguments()
     for marks in ([False, False, False, False], [True, True, False, False]):  # none; rows of two lengths
         second_args = (args[0], args[1][:-1], args[2], args[3]) if any(marks) else args
-        with pytest.raises(ValueError, match="cannot be split"):
-            SplitKernel(_divide, args, [True, True, False, True], 1, second=(_divide, second_args, marks))
+        split = SplitKernel(_divide, args, [True, True, False, True], 1, second=(_divide, second_args, marks))
+        assert split.fits(_divide, args)
+        assert not split.fits(_divide, second_args, job=1)
+        split.close()
 
 
 def test_a_kernel_that_is_not_cached_on_disk_cannot_be_split() -> None:

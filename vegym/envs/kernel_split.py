@@ -441,9 +441,10 @@ class SplitKernel:
     kernel's but arrays of the same dtypes and shapes, batch arguments too, into which each chunk copies its rows
     of those arguments after its kernel (by the thread that wrote them, while they are in its cache; ``TypeError``
     for copies of other arguments or into other arrays). With ``second``, a call ``(kernel, args, batch)`` that the
-    same helpers run too (``job=1``): its batch arguments are split by their first axis in the same way, but the
-    others may have as many rows (row indices split between chunks that write those rows of whole arrays, say);
-    each chunk must write what no other chunk writes or reads. :meth:`close` (or dropping it) stops the helpers.
+    same helpers run too (``job=1``): its batch arguments, all of one length, are split by their first axis in the
+    same way, but the others may have as many rows (row indices split between chunks that write those rows of whole
+    arrays, say); each chunk must write what no other chunk writes or reads. A second call that cannot be split is
+    left out (no call fits ``job=1``). :meth:`close` (or dropping it) stops the helpers.
     ``ValueError`` where the kernel cannot be split (then call it unsplit): not a kernel numba caches on disk,
     arguments the shim cannot take, a whole argument with as many rows as the batch ones (a row array that is not
     marked), no ``usleep``, or no thread to be had."""
@@ -459,8 +460,7 @@ class SplitKernel:
     ) -> None:
         rows = {len(arg) for arg, split in zip(args, batch, strict=True) if split}
         whole = [arg for arg, split in zip(args, batch, strict=True) if isinstance(arg, np.ndarray) and not split]
-        second_rows = second is not None and len({len(a) for a, split in zip(*second[1:], strict=True) if split}) != 1
-        if compute_fingerprint is None or not _USLEEP or len(rows) != 1 or second_rows or helpers < 1:
+        if compute_fingerprint is None or not _USLEEP or len(rows) != 1 or helpers < 1:
             raise ValueError(f"{kernel!r} cannot be split over these arguments on this platform")
         if any(arg.shape[0] in rows for arg in whole):
             raise ValueError(f"{kernel!r} cannot be split: a whole argument has as many rows as the split ones")
@@ -487,9 +487,11 @@ class SplitKernel:
         marks = "".join("b" if split else "-" for split in batch) + ">" + ",".join(map(str, copies))
         self.jobs = [_Job(kernel, args, marks, self.control, self._naps)]
         """The calls this split makes: ``kernel(*args)``'s, and ``second``'s if given."""
-        if second is not None:
+        second_rows = second is not None and {len(a) for a, split in zip(*second[1:], strict=True) if split}
+        if second_rows and len(second_rows) == 1:
             second_marks = "".join("b" if split else "-" for split in second[2]) + ">"
-            self.jobs.append(_Job(*second[:2], second_marks, self.control, self._naps))
+            with contextlib.suppress(ValueError):  # left out: that call runs unsplit (its job never fits)
+                self.jobs.append(_Job(*second[:2], second_marks, self.control, self._naps))
         first, last = self.jobs[0], self.jobs[-1]
         typeof = _split_call.typeof_pyval
         serve = _compiled(
