@@ -299,10 +299,11 @@ def test_a_kernel_error_in_any_chunk_is_raised_and_stops_the_helpers(zero_at: in
 
 @pytest.mark.skipif((os.cpu_count() or 1) < 2, reason="a helper runs beside the calling thread on two cores only")
 def test_a_helpers_kernel_error_is_raised_by_the_calling_thread() -> None:
-    """Which thread takes the last chunk is a race; calls right after a warm-up, while the helper spins, let it
-    take that chunk often enough for a few tries to see one."""
+    """Which thread takes the last chunk is a race; calls right after a warm-up, while the helper spins, on a
+    million rows (the calling thread's chunk takes about a millisecond, even on a loaded machine a helper has that
+    long to take the other), let it take that chunk often enough for a few tries to see one."""
     for _ in range(40):
-        good, bad = _divide_arguments(), _divide_arguments()
+        good, bad = _divide_arguments(1_000_001), _divide_arguments(1_000_001)
         bad[1][-1] = 0
         split = SplitKernel(_divide, good, [True, True, False, True], 1)
         split(good)
