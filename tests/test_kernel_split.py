@@ -67,32 +67,42 @@ def test_a_split_step_gives_the_one_thread_step_bit_for_bit(env_id: str) -> None
     single.close()
 
 
-def _restart_of_some_rows(
-    env_id: str, num_envs: int, helpers: int = 0
-) -> tuple[gym.vector.VectorEnv, np.ndarray] | None:
-    """The vector env of ``env_id`` (``num_envs`` sub-envs whose steps use ``helpers`` helper threads, one step
-    taken) and every third row, where its task has a restart kernel for some rows (None where it has one for every
-    row only, or none)."""
+SOME_ROWS_RESTARTS = ["vegym/BouncingBall-v0", "vegym/ProjectileAdjust-v0", "vegym/SteerableWheel-v0"]
+"""The envs whose restart kernel takes some rows, which a split step runs over parts of them."""
+EVERY_ROW_RESTARTS = ["vegym/Billiards-v0", "vegym/Projectile-v0"]
+"""The envs whose restart kernel takes every row only, which a split step runs over chunks of rows."""
+
+
+def _stepped(env_id: str, num_envs: int, helpers: int) -> gym.vector.VectorEnv:
+    """The vector env of ``env_id`` (``num_envs`` sub-envs whose steps use ``helpers`` helper threads), one step
+    taken."""
     env = gym.make_vec(env_id, num_envs=num_envs, vectorization_mode="vector_entry_point")
     env.unwrapped._split_helpers = helpers
     env.reset(seed=5)
     env.step(env.action_space.sample())
-    rows = np.arange(0, num_envs, 3)
-    unwrapped = env.unwrapped
-    if unwrapped.task.restart_call(unwrapped.state, rows, np.empty_like(env.observation_space.low)) is None:
+    return env
+
+
+def test_the_envs_whose_restarts_a_split_step_runs_are_those_listed() -> None:
+    """So that the tests below cover every restart kernel a split step runs."""
+    some, every = [], []
+    for env_id in ENV_IDS:
+        env = _stepped(env_id, 30, 0)
+        unwrapped, obs = env.unwrapped, np.empty(env.observation_space.shape, np.float32)
+        if unwrapped.task.restart_call(unwrapped.state, np.arange(0, 30, 3), obs) is not None:
+            some.append(env_id)
+        elif unwrapped.task.restart_call(unwrapped.state, np.arange(30), obs) is not None:
+            every.append(env_id)
         env.close()
-        return None
-    return env, rows
+    assert (some, every) == (SOME_ROWS_RESTARTS, EVERY_ROW_RESTARTS)
 
 
-@pytest.mark.parametrize("env_id", ENV_IDS)
+@pytest.mark.parametrize("env_id", SOME_ROWS_RESTARTS)
 def test_a_restart_kernel_of_some_rows_writes_those_rows_only(env_id: str) -> None:
     """What lets a split step run it over parts of the rows at once (``VegymVectorEnv._restart_rows``)."""
-    made = _restart_of_some_rows(env_id, 30)
-    if made is None:
-        pytest.skip("no restart kernel for some rows")
-    env, rows = made
-    state, others = env.unwrapped.state, np.setdiff1d(np.arange(30), rows)
+    env = _stepped(env_id, 30, 0)
+    rows, others = np.arange(0, 30, 3), np.setdiff1d(np.arange(30), np.arange(0, 30, 3))
+    state = env.unwrapped.state
     before = {name: value.copy() for name, value in state.items()}
     obs = np.full(env.observation_space.shape, np.nan, np.float32)
     kernel, args = env.unwrapped.task.restart_call(state, rows, obs)
@@ -104,22 +114,18 @@ def test_a_restart_kernel_of_some_rows_writes_those_rows_only(env_id: str) -> No
     env.close()
 
 
-@pytest.mark.parametrize("env_id", ENV_IDS)
+@pytest.mark.parametrize("env_id", SOME_ROWS_RESTARTS + EVERY_ROW_RESTARTS)
 def test_a_split_restart_gives_the_one_thread_restart_bit_for_bit(env_id: str) -> None:
     """Of some rows (every third) where the task's restart kernel takes some rows, else of every row."""
-    env = _vector_env(env_id, 1)
-    env.reset(seed=5)
-    env.step(env.action_space.sample())
+    env = _stepped(env_id, SPLIT_ENVS, 1)
     unwrapped, task = env.unwrapped, env.unwrapped.task
-    restarts = unwrapped._split_restarts
-    if restarts is None:
-        env.close()
-        pytest.skip("no restart kernel")
-    if restarts == "some":
+    if env_id in SOME_ROWS_RESTARTS:
+        assert unwrapped._split_restarts == "some"
         rows, call_rows = np.arange(0, SPLIT_ENVS, 3), np.arange(0, SPLIT_ENVS, 3)
         assert len(rows) >= vegym.envs.base.SPLIT_RESTART_ROWS
         restart = unwrapped._restart_rows
     else:
+        assert unwrapped._split_restarts == "every"
         rows, call_rows = np.arange(SPLIT_ENVS), unwrapped._chunk_rows
         restart = lambda state, _, obs: unwrapped._restart_every_row(state, obs)  # noqa: E731
     states = [{name: value.copy() for name, value in unwrapped.state.items()} for _ in range(2)]
