@@ -1043,25 +1043,27 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         """:meth:`Task.restart` of the rows ``rows``: split between this thread and the step's helpers (the second
         call of :class:`kernel_split.SplitKernel`, over halves of ``rows``) where there are ``SPLIT_RESTART_ROWS``
         or more of them and the step is split, else in this thread."""
-        split = self._split
-        if split is not None and self._split_restarts == "some" and len(rows) >= SPLIT_RESTART_ROWS:
-            call = self.task.restart_call(state, rows, obs)
-            if call is not None and split.fits(*call, job=1):
-                split(call[1], job=1)
-                return
-        self.task.restart(state, rows, obs)
+        if len(rows) < SPLIT_RESTART_ROWS or not self._split_restart("some", state, rows, obs):
+            self.task.restart(state, rows, obs)
 
     def _restart_every_row(self, state: State, obs: np.ndarray) -> None:
         """:meth:`Task.restart` of every row: split between this thread and the step's helpers, by rows, where the
         step is split and the split's second call restarts every row; else in chunks (:func:`_in_chunks`)."""
+        if not self._split_restart("every", state, self._chunk_rows, obs):
+            every = self._every
+            _in_chunks(self.num_envs, lambda r: self.task.restart(rows_of(state, r), every[: r.stop - r.start], obs[r]))
+
+    def _split_restart(self, restarts: str, state: State, rows: np.ndarray, obs: np.ndarray) -> bool:
+        """Run the task's restart kernel on ``rows`` as the split's second call, where the split runs ``restarts``
+        (:meth:`_restart_call_to_split`) and the call fits it; whether it did."""
         split = self._split
-        if split is not None and self._split_restarts == "every":
-            call = self.task.restart_call(state, self._chunk_rows, obs)
-            if call is not None and split.fits(*call, job=1):
-                split(call[1], job=1)
-                return
-        every = self._every
-        _in_chunks(self.num_envs, lambda r: self.task.restart(rows_of(state, r), every[: r.stop - r.start], obs[r]))
+        if split is None or self._split_restarts != restarts:
+            return False
+        call = self.task.restart_call(state, rows, obs)
+        if call is None or not split.fits(*call, job=1):
+            return False
+        split(call[1], job=1)
+        return True
 
     def close_extras(self, **kwargs: Any) -> None:
         """Stop the step's helper threads, for good: steps after ``close()`` run in the calling thread."""
