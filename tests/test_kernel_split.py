@@ -4,11 +4,13 @@ raised, helper threads stopped, and copies and forked children that step as the 
 import copy
 import functools
 import gc
+import math
 import multiprocessing
 import os
 import pickle
 import threading
 import time
+from collections.abc import Callable
 
 import gymnasium as gym
 import numpy as np
@@ -56,11 +58,35 @@ def _assert_same(first: list[np.ndarray], second: list[np.ndarray]) -> None:
         np.testing.assert_array_equal(a, b)
 
 
+class _Alone(kernel_split.ModeChooser):
+    """A chooser that runs every call in the calling thread alone (with ``PROBE_INTERVAL_S`` infinite)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.solo = True
+
+
+def _run_alone(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(kernel_split, "ModeChooser", _Alone)
+    monkeypatch.setattr(kernel_split, "PROBE_INTERVAL_S", math.inf)
+
+
+def _posted_jobs(split: SplitKernel) -> int:
+    return int(split.control[kernel_split._TICKET]) >> 32
+
+
+@pytest.mark.parametrize("alone", [False, True], ids=["over threads", "alone"])
 @pytest.mark.parametrize("env_id", ENV_IDS)
-def test_a_split_step_gives_the_one_thread_step_bit_for_bit(env_id: str) -> None:
+def test_a_split_step_gives_the_one_thread_step_bit_for_bit(
+    env_id: str, alone: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Split over threads, or run by the split in the calling thread alone, as its chooser may choose."""
+    if alone:
+        _run_alone(monkeypatch)
     split, single = _vector_env(env_id, 1), _vector_env(env_id, 0)
     split_outputs, single_outputs = _rollout(split, 40), _rollout(single, 40)
     assert isinstance(split.unwrapped._split, SplitKernel)
+    assert (_posted_jobs(split.unwrapped._split) == 0) == alone
     assert single.unwrapped._split is None
     _assert_same(split_outputs, single_outputs)
     split.close()
@@ -114,9 +140,15 @@ def test_a_restart_kernel_of_some_rows_writes_those_rows_only(env_id: str) -> No
     env.close()
 
 
+@pytest.mark.parametrize("alone", [False, True], ids=["over threads", "alone"])
 @pytest.mark.parametrize("env_id", SOME_ROWS_RESTARTS + EVERY_ROW_RESTARTS)
-def test_a_split_restart_gives_the_one_thread_restart_bit_for_bit(env_id: str) -> None:
-    """Of some rows (every third) where the task's restart kernel takes some rows, else of every row."""
+def test_a_split_restart_gives_the_one_thread_restart_bit_for_bit(
+    env_id: str, alone: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Of some rows (every third) where the task's restart kernel takes some rows, else of every row; split over
+    threads or run by the split in the calling thread alone."""
+    if alone:
+        _run_alone(monkeypatch)
     env = _stepped(env_id, SPLIT_ENVS, 1)
     unwrapped, task = env.unwrapped, env.unwrapped.task
     if env_id in SOME_ROWS_RESTARTS:
@@ -131,7 +163,9 @@ def test_a_split_restart_gives_the_one_thread_restart_bit_for_bit(env_id: str) -
     states = [{name: value.copy() for name, value in unwrapped.state.items()} for _ in range(2)]
     obs = [np.zeros(env.observation_space.shape, np.float32) for _ in range(2)]
     assert unwrapped._split.fits(*task.restart_call(states[0], call_rows, obs[0]), job=1)
+    jobs = _posted_jobs(unwrapped._split)
     restart(states[0], rows, obs[0])
+    assert _posted_jobs(unwrapped._split) == jobs + (not alone)
     task.restart(states[1], rows, obs[1])
     np.testing.assert_array_equal(obs[0], obs[1])
     for name in states[0]:
@@ -459,3 +493,66 @@ def test_an_idle_helper_spins_then_naps_ever_longer_and_spins_again_once_a_job_i
     sleeps, state = _idle_sleeps(8, state, 5)
     assert sleeps == [0, 0, 0, 50, 100]
     assert _idle_sleeps(0, state, 1)[0] == [0]  # a job number that wrapped around is a new job too
+
+
+def _run(chooser: kernel_split.ModeChooser, cost: Callable[[bool, float], float], seconds: float, start: float = 0.0):
+    """Calls for ``seconds`` from ``start``, each taking ``cost(alone, now)`` seconds to the next call's start, run
+    the way ``chooser`` chooses: the start times and whether each ran alone."""
+    now, starts, ways = start, [], []
+    while now < start + seconds:
+        starts.append(now)
+        ways.append(chooser.choose(now))
+        now += cost(ways[-1], now)
+    return np.array(starts), np.array(ways)
+
+
+def _trials(ways: np.ndarray) -> list[tuple[int, int]]:
+    """The (first, last + 1) calls of each run of calls the way the first call did not go."""
+    changes = np.flatnonzero(np.diff(ways.astype(int))) + 1
+    bounds = [*changes, len(ways)] if len(changes) % 2 else list(changes)
+    return list(zip(bounds[::2], bounds[1::2], strict=True))
+
+
+def test_the_chooser_keeps_splitting_while_a_trial_alone_is_not_faster_by_its_margin() -> None:
+    """Alone 5% faster (the margin is 10%): a trial every ``PROBE_INTERVAL_S``, of the calls while the helpers
+    settle (``SOLO_SETTLE_S``) and ``PROBE_CALLS`` timed ones, each followed by a return to the split."""
+    starts, ways = _run(kernel_split.ModeChooser(), lambda alone, _: 190e-6 if alone else 200e-6, 4.0)
+    assert not ways[0]
+    trials = _trials(ways)
+    assert len(trials) == 7  # at about 0.5, 1.0, ..., 3.5 s
+    settling = math.ceil(kernel_split.SOLO_SETTLE_S / 190e-6)
+    assert [stop - first for first, stop in trials] == [settling + kernel_split.PROBE_CALLS] * 7
+    ends = [0.0] + [starts[stop] for _, stop in trials[:-1]]  # the first call, then each trial's end
+    waits = [starts[first] - end for (first, _), end in zip(trials, ends, strict=True)]
+    assert all(kernel_split.PROBE_INTERVAL_S <= wait < kernel_split.PROBE_INTERVAL_S + 200e-6 for wait in waits)
+
+
+def test_the_chooser_runs_alone_where_that_is_faster_and_splits_again_once_a_split_trial_is() -> None:
+    chooser = kernel_split.ModeChooser()
+    starts, ways = _run(chooser, lambda alone, _: 350e-6 if alone else 500e-6, 3.0)  # a slow phase of the split
+    moved = starts[np.argmax(ways)]
+    assert kernel_split.PROBE_INTERVAL_S <= moved < kernel_split.PROBE_INTERVAL_S + 0.01
+    assert ways[starts > moved + 0.01].mean() > 0.95  # alone but for the split's trials
+    starts, ways = _run(chooser, lambda alone, _: 350e-6 if alone else 220e-6, 3.0, start=3.0)
+    back = starts[np.argmin(ways)]
+    assert back < 3.0 + kernel_split.PROBE_INTERVAL_S + 0.01
+    assert (~ways[starts > back + kernel_split.SPLIT_SETTLE_S + 0.01]).mean() > 0.99
+
+
+def test_a_trials_calls_before_the_helpers_settle_into_it_are_not_counted() -> None:
+    """A split trial's first calls may find the helpers napping (up to ``MAX_NAP_US``), slower than alone: only the
+    later ones count."""
+    chooser = kernel_split.ModeChooser()
+    _run(chooser, lambda alone, _: 350e-6 if alone else 500e-6, 3.0)
+    assert chooser.solo
+    trial_start: list[float] = []
+
+    def cost(alone: bool, now: float) -> float:
+        if alone:
+            trial_start.clear()
+            return 350e-6
+        trial_start[:] = trial_start or [now]
+        return 2e-3 if now < trial_start[0] + 1e-6 * kernel_split.MAX_NAP_US else 200e-6  # napping, then not
+
+    starts, ways = _run(chooser, cost, 3.0, start=3.0)
+    assert not ways[-1]

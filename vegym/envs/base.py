@@ -795,7 +795,9 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
     With two or more chunks of ``kernel_split.SPLIT_MIN_ROWS`` (4,096) sub-envs and of threads (the CPU cores
     this process may run on, or ``VEGYM_NUM_THREADS``, read when the env is made), a step's kernel runs over chunks
     of rows in the calling thread and daemon helper threads at once, with the same results; the helpers spin for
-    about 0.2 ms after each step and then nap, and ``close()`` or dropping the env stops them.
+    about 0.2 ms after each step and then nap, and ``close()`` or dropping the env stops them. Where steps go
+    slower that way than in the calling thread alone (tried every half second), the calling thread runs them
+    alone while that lasts.
     ``VEGYM_NUM_THREADS=1`` keeps every vector env to the calling thread.
     """
 

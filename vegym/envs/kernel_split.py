@@ -8,8 +8,10 @@ that has taken a chunk is waited for, and one descheduled then delays the step).
 never takes the GIL. Handing work to a sleeping thread took 60-130 us on the 2-core VM this was measured on, about
 half of an 8,192-env step, so a helper spins between jobs, for ``SPIN_ROUNDS`` rounds (about 0.2 ms here), then
 naps in ``usleep`` calls that double from ``MIN_NAP_US`` to ``MAX_NAP_US``, which hand its core back; a job posted
-while it naps (the calling thread takes its chunks) starts the spin again. Splitting needs POSIX ``usleep`` and
-numba's type fingerprints; without them kernels run unsplit.
+while it naps (the calling thread takes its chunks) starts the spin again. Where the calls go slower over the
+threads than in the calling thread alone (on a host that shares the cores' time, say), they run alone, the helpers
+napping: :class:`ModeChooser` times both ways. Splitting needs POSIX ``usleep`` and numba's type fingerprints;
+without them kernels run unsplit.
 """
 
 from __future__ import annotations
@@ -18,7 +20,9 @@ import contextlib
 import ctypes
 import os
 import platform
+import statistics
 import threading
+import time
 import weakref
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -50,6 +54,17 @@ for a helper's chunk before it naps between looks: each an x86 ``pause`` (about 
 x86 generations), a bare read elsewhere (so helpers nap sooner)."""
 MIN_NAP_US, MAX_NAP_US = 50, 10_000
 """A napping helper's first and longest ``usleep`` (us); the longest also bounds how long stopping it takes."""
+PROBE_INTERVAL_S = 0.5
+"""Seconds between trials of the way of running a split's calls not in use (:class:`ModeChooser`)."""
+PROBE_CALLS = 8
+"""Calls timed in each way for a comparison: the trial's, and the latest ones of the way in use."""
+PROBE_MARGIN = 0.9
+"""A trial's way is taken where its median call time is below this fraction of the other's."""
+SOLO_SETTLE_S = 1e-3
+"""Seconds of a trial of running in the calling thread alone not timed: the helpers spin after the last job posted
+(``SPIN_ROUNDS``, about 0.2 ms)."""
+SPLIT_SETTLE_S = 2e-6 * MAX_NAP_US
+"""Seconds of a trial of running over threads not timed: a napping helper takes up to ``MAX_NAP_US`` to look."""
 
 _TICKET, _FINISHED, _RESULT, _FAILED, _STOP, _KIND = (8 * k for k in range(6))
 """Slots of the control array (int64), each in a 64-byte cache line of its own: the ticket ``job << 32 | chunk``,
@@ -178,6 +193,7 @@ def _caller_side(
     spin_rounds: int,
     naps: tuple[int, int, int],
     kind: int,
+    solo: bool,
     layout: str,
     batch: str,
 ) -> tuple[bool, bool]:
@@ -225,11 +241,12 @@ _BOUNDS = "lo, hi = n * chunk // chunks, n * (chunk + 1) // chunks"
 
 
 @overload(_caller_side)
-def _caller_side_impl(control, table, args, chunks, spin_rounds, naps, kind, layout, batch):  # noqa: ANN001, ANN202
+def _caller_side_impl(control, table, args, chunks, spin_rounds, naps, kind, solo, layout, batch):  # noqa: ANN001, ANN202
     """Write the arrays' addresses and shapes into ``table`` (``[address, *shape]`` per array), post a job of
     ``chunks`` chunks of the split's call ``kind`` (0 or 1), take chunks until none is left, then wait for the
     helpers' chunks: ``spin_rounds`` rounds, then naps of ``naps[1]`` us (``usleep`` at address ``naps[0]``)
-    between looks. Returns whether a chunk's kernel returned true and whether a helper's kernel raised."""
+    between looks. With ``solo``, run every chunk in this thread instead and post nothing. Returns whether a
+    chunk's kernel returned true and whether a helper's kernel raised."""
     if not (isinstance(layout, types.StringLiteral) and isinstance(batch, types.StringLiteral)):
         return None
     kernel, fields, arity, copies = _fields(layout, batch)
@@ -245,8 +262,14 @@ def _caller_side_impl(control, table, args, chunks, spin_rounds, naps, kind, lay
     copy_rows = "".join(f"; _copy(args[{source}][lo:hi], args[{to}][lo:hi])" for source, to in copies)
     first = next(k for k, (_, _, split) in enumerate(fields) if split)
     source = f"""
-def generated(control, table, args, chunks, spin_rounds, naps, kind, layout, batch):
+def generated(control, table, args, chunks, spin_rounds, naps, kind, solo, layout, batch):
     n = args[{first}].shape[0]
+    if solo:
+        any_true = 0
+        for chunk in range(chunks):
+            {_BOUNDS}
+            any_true |= _truth(kernel({chunk_args})){copy_rows}
+        return any_true != 0, False
     {"; ".join(writes)}
     control[{_KIND}] = kind
     control[{_FINISHED}] = 0
@@ -324,10 +347,13 @@ def _split_call(
     spin_rounds: int,
     naps: tuple[int, int, int],
     kind: int,
+    solo: bool,
     layout: str,
     batch: str,
 ) -> tuple[bool, bool]:
-    return _caller_side(control, table, args, chunks, spin_rounds, naps, kind, literally(layout), literally(batch))
+    return _caller_side(
+        control, table, args, chunks, spin_rounds, naps, kind, solo, literally(layout), literally(batch)
+    )
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -417,7 +443,7 @@ class _Job:
             _split_call,
             (
                 typeof(control), typeof(self.table), typeof(args), types.intp, types.intp, typeof(naps), types.intp,
-                types.literal(self.layout), types.literal(batch),
+                types.boolean, types.literal(self.layout), types.literal(batch),
             ),
         )  # fmt: skip
         if self.call is None:
@@ -430,6 +456,52 @@ class _Job:
             and compute_fingerprint(args) == self.fingerprint
             and repr(tuple(args[k] for k in self._scalar_positions)) == self._scalars_text
         )
+
+
+class ModeChooser:
+    """Chooses, call by call, whether a split runs its chunks over its threads or all in the calling thread
+    ("solo", the helpers left to nap), from the times between the starts of its first call's runs: each counts for
+    the way the earlier run went, with what the calling thread did before the next (the rest of an env's step,
+    which a helper spinning on a shared core slows). It starts split; every ``PROBE_INTERVAL_S`` seconds it tries
+    the other way for ``PROBE_CALLS`` timed calls, after ``SOLO_SETTLE_S`` or ``SPLIT_SETTLE_S`` (while the helpers
+    still spin, or nap), and keeps to it where their median is below ``PROBE_MARGIN`` times that of the latest
+    ``PROBE_CALLS`` the way in use."""
+
+    def __init__(self) -> None:
+        self.solo = False
+        """Whether calls run in the calling thread alone."""
+        self._latest: list[float] = []
+        """Times (s) between the latest calls the way in use."""
+        self._trial: list[float] | None = None
+        """Times (s) between the trial's calls so far, None between trials."""
+        self._trial_start = 0.0
+        self._next_trial = 0.0
+        self._last: float | None = None
+        """When the previous call started."""
+
+    def choose(self, now: float) -> bool:
+        """Whether a call starting at ``now`` (``time.perf_counter`` seconds) runs solo; the time since the
+        previous call's start counts for the way that call ran."""
+        last, self._last = self._last, now
+        if last is None:
+            self._next_trial = now + PROBE_INTERVAL_S
+            return self.solo
+        if self._trial is None:
+            self._latest.append(now - last)
+            if len(self._latest) > PROBE_CALLS:
+                del self._latest[0]
+            if now >= self._next_trial and len(self._latest) == PROBE_CALLS:
+                self._trial, self._trial_start, self.solo = [], now, not self.solo
+            return self.solo
+        if last >= self._trial_start + (SOLO_SETTLE_S if self.solo else SPLIT_SETTLE_S):
+            self._trial.append(now - last)
+        if len(self._trial) == PROBE_CALLS:
+            if statistics.median(self._trial) < PROBE_MARGIN * statistics.median(self._latest):
+                self._latest = self._trial
+            else:
+                self.solo = not self.solo
+            self._trial, self._next_trial = None, now + PROBE_INTERVAL_S
+        return self.solo
 
 
 class SplitKernel:
@@ -484,6 +556,9 @@ class SplitKernel:
         self.control = _aligned_zeros(_SLOTS)
         self.control[_TICKET] = self.chunks  # job 0, every chunk taken: nothing to do until the first call
         self._naps = (_USLEEP, MIN_NAP_US, MAX_NAP_US)
+        self.chooser = ModeChooser()
+        """Whether calls run over the threads or in the calling thread alone, chosen from the first call's
+        times."""
         marks = "".join("b" if split else "-" for split in batch) + ">" + ",".join(map(str, copies))
         self.jobs = [_Job(kernel, args, marks, self.control, self._naps)]
         """The calls this split makes: ``kernel(*args)``'s, and ``second``'s if given."""
@@ -539,9 +614,10 @@ class SplitKernel:
         later calls run in the calling thread. Either way the call is incomplete, as after an error in one
         thread."""
         target = self.jobs[job]
+        solo = self.chooser.choose(time.perf_counter()) if job == 0 else self.chooser.solo
         try:
             result, failed = target.call(
-                self.control, target.table, args, self.chunks, SPIN_ROUNDS, self._naps, job, target.layout,
+                self.control, target.table, args, self.chunks, SPIN_ROUNDS, self._naps, job, solo, target.layout,
                 target.batch,
             )  # fmt: skip
         except Exception:  # the calling thread's chunk raised (a KeyboardInterrupt comes after the call returned)
