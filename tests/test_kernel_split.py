@@ -495,7 +495,9 @@ def test_an_idle_helper_spins_then_naps_ever_longer_and_spins_again_once_a_job_i
     assert _idle_sleeps(0, state, 1)[0] == [0]  # a job number that wrapped around is a new job too
 
 
-def _run(chooser: kernel_split.ModeChooser, cost: Callable[[bool, float], float], seconds: float, start: float = 0.0):
+def _run(
+    chooser: kernel_split.ModeChooser, cost: Callable[[bool, float], float], seconds: float, start: float = 0.0
+) -> tuple[np.ndarray, np.ndarray]:
     """Calls for ``seconds`` from ``start``, each taking ``cost(alone, now)`` seconds to the next call's start, run
     the way ``chooser`` chooses: the start times and whether each ran alone."""
     now, starts, ways = start, [], []
@@ -554,5 +556,5 @@ def test_a_trials_calls_before_the_helpers_settle_into_it_are_not_counted() -> N
         trial_start[:] = trial_start or [now]
         return 2e-3 if now < trial_start[0] + 1e-6 * kernel_split.MAX_NAP_US else 200e-6  # napping, then not
 
-    starts, ways = _run(chooser, cost, 3.0, start=3.0)
+    _, ways = _run(chooser, cost, 3.0, start=3.0)
     assert not ways[-1]
