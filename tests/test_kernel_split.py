@@ -59,7 +59,8 @@ def _assert_same(first: list[np.ndarray], second: list[np.ndarray]) -> None:
 
 
 class _Alone(kernel_split.ModeChooser):
-    """A chooser that runs every call in the calling thread alone (with ``PROBE_INTERVAL_S`` infinite)."""
+    """A chooser that runs every call in the calling thread alone (and never tries the other way, with
+    :func:`_run_alone`)."""
 
     def __init__(self) -> None:
         super().__init__()
@@ -69,6 +70,7 @@ class _Alone(kernel_split.ModeChooser):
 def _run_alone(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(kernel_split, "ModeChooser", _Alone)
     monkeypatch.setattr(kernel_split, "PROBE_INTERVAL_S", math.inf)
+    monkeypatch.setattr(kernel_split, "SLOWDOWN", math.inf)
 
 
 def _posted_jobs(split: SplitKernel) -> int:
@@ -515,18 +517,25 @@ def _trials(ways: np.ndarray) -> list[tuple[int, int]]:
     return list(zip(bounds[::2], bounds[1::2], strict=True))
 
 
-def test_the_chooser_keeps_splitting_while_a_trial_alone_is_not_faster_by_its_margin() -> None:
-    """Alone 5% faster (the margin is 10%): a trial every ``PROBE_INTERVAL_S``, of the calls while the helpers
-    settle (``SOLO_SETTLE_S``) and ``PROBE_CALLS`` timed ones, each followed by a return to the split."""
-    starts, ways = _run(kernel_split.ModeChooser(), lambda alone, _: 190e-6 if alone else 200e-6, 4.0)
+def test_the_chooser_keeps_splitting_while_a_trial_alone_is_not_faster_by_its_margin_and_tries_less_often() -> None:
+    """Alone 5% faster (the margin is 10%): trials after ``PROBE_INTERVAL_S`` of stepping, then twice as long after
+    each (up to ``MAX_PROBE_INTERVAL_S``), each of the calls while the helpers settle (``SOLO_SETTLE_S``) and
+    ``PROBE_CALLS`` timed ones, and each followed by a return to the split (whose first ``SPLIT_SETTLE_S`` are not
+    timed, nor counted as stepping)."""
+    starts, ways = _run(kernel_split.ModeChooser(), lambda alone, _: 190e-6 if alone else 200e-6, 20.0)
     assert not ways[0]
     trials = _trials(ways)
-    assert len(trials) == 7  # at about 0.5, 1.0, ..., 3.5 s
     settling = math.ceil(kernel_split.SOLO_SETTLE_S / 190e-6)
-    assert [stop - first for first, stop in trials] == [settling + kernel_split.PROBE_CALLS] * 7
-    ends = [0.0] + [starts[stop] for _, stop in trials[:-1]]  # the first call, then each trial's end
+    assert [stop - first for first, stop in trials] == [settling + kernel_split.PROBE_CALLS] * len(trials)
+    ends = [0.0] + [starts[stop] + kernel_split.SPLIT_SETTLE_S for _, stop in trials[:-1]]
     waits = [starts[first] - end for (first, _), end in zip(trials, ends, strict=True)]
-    assert all(kernel_split.PROBE_INTERVAL_S <= wait < kernel_split.PROBE_INTERVAL_S + 200e-6 for wait in waits)
+    intervals = [min(0.5 * 2**k, kernel_split.MAX_PROBE_INTERVAL_S) for k in range(len(trials))]
+    assert intervals[:5] == [0.5, 1.0, 2.0, 4.0, 4.0] and len(trials) == 7  # 0.5 + 1 + 2 + 4 * 4 = 19.5 s
+    # a trial starts at the first fresh set of PROBE_CALLS timed calls once the interval is stepped
+    assert all(
+        0.0 <= wait - interval <= (kernel_split.PROBE_CALLS + 2) * 200e-6
+        for wait, interval in zip(waits, intervals, strict=True)
+    )
 
 
 def test_the_chooser_runs_alone_where_that_is_faster_and_splits_again_once_a_split_trial_is() -> None:
@@ -535,10 +544,33 @@ def test_the_chooser_runs_alone_where_that_is_faster_and_splits_again_once_a_spl
     moved = starts[np.argmax(ways)]
     assert kernel_split.PROBE_INTERVAL_S <= moved < kernel_split.PROBE_INTERVAL_S + 0.01
     assert ways[starts > moved + 0.01].mean() > 0.95  # alone but for the split's trials
-    starts, ways = _run(chooser, lambda alone, _: 350e-6 if alone else 220e-6, 3.0, start=3.0)
+    starts, ways = _run(chooser, lambda alone, _: 350e-6 if alone else 220e-6, 10.0, start=3.0)  # alone as before
     back = starts[np.argmin(ways)]
-    assert back < 3.0 + kernel_split.PROBE_INTERVAL_S + 0.01
+    assert back < 3.0 + kernel_split.MAX_PROBE_INTERVAL_S + 0.05
     assert (~ways[starts > back + kernel_split.SPLIT_SETTLE_S + 0.01]).mean() > 0.99
+
+
+def test_the_way_in_use_slowing_brings_the_next_trial_forward() -> None:
+    chooser = kernel_split.ModeChooser()
+    assert not _run(chooser, lambda alone, _: 350e-6 if alone else 200e-6, 5.0)[1][-1]  # trials at 0.5, 1.5, 3.5 s
+    starts, ways = _run(chooser, lambda alone, _: 350e-6 if alone else 500e-6, 1.0, start=5.0)
+    moved = starts[np.argmax(ways)]
+    assert moved < 5.0 + 0.01  # not at about 7.5 s, 4 s of stepping after the last trial
+    assert ways[(starts > moved) & (starts < moved + kernel_split.PROBE_INTERVAL_S)].all()
+
+
+def test_pauses_between_bursts_of_calls_do_not_count_as_stepping() -> None:
+    """Bursts of 32 calls 1 s apart: the one trial comes after ``PROBE_INTERVAL_S`` of stepping (31 intervals of
+    200 us a burst: in the 81st), not at the first burst after the first pause."""
+    chooser, now, ways = kernel_split.ModeChooser(), 0.0, []
+    for _ in range(100):
+        for _ in range(32):
+            ways.append(chooser.choose(now))
+            now += 190e-6 if ways[-1] else 200e-6
+        now += 1.0
+    trials = _trials(np.array(ways))
+    assert len(trials) == 1 and 80 * 32 <= trials[0][0] < 81 * 32
+    assert not chooser.solo
 
 
 def test_a_trials_calls_before_the_helpers_settle_into_it_are_not_counted() -> None:
@@ -554,7 +586,7 @@ def test_a_trials_calls_before_the_helpers_settle_into_it_are_not_counted() -> N
             trial_start.clear()
             return 350e-6
         trial_start[:] = trial_start or [now]
-        return 2e-3 if now < trial_start[0] + 1e-6 * kernel_split.MAX_NAP_US else 200e-6  # napping, then not
+        return 400e-6 if now < trial_start[0] + 1e-6 * kernel_split.MAX_NAP_US else 200e-6  # napping, then not
 
-    _, ways = _run(chooser, cost, 3.0, start=3.0)
+    _, ways = _run(chooser, cost, 10.0, start=3.0)
     assert not ways[-1]

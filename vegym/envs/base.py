@@ -795,9 +795,9 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
     With two or more chunks of ``kernel_split.SPLIT_MIN_ROWS`` (4,096) sub-envs and of threads (the CPU cores
     this process may run on, or ``VEGYM_NUM_THREADS``, read when the env is made), a step's kernel runs over chunks
     of rows in the calling thread and daemon helper threads at once, with the same results; the helpers spin for
-    about 0.2 ms after each step and then nap, and ``close()`` or dropping the env stops them. Where steps go
-    slower that way than in the calling thread alone (tried every half second), the calling thread runs them
-    alone while that lasts.
+    about 0.2 ms after each step and then nap, and ``close()`` or dropping the env stops them. Where the calling
+    thread alone steps at least 10% faster (tried after half a second of stepping, then less often, and at once
+    when steps slow down), it runs them alone while that lasts.
     ``VEGYM_NUM_THREADS=1`` keeps every vector env to the calling thread.
     """
 
@@ -988,14 +988,14 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         return out["obs"], reward, terminated, truncated, info
 
     def _step_task(self, state: State, actions: np.ndarray, out: State) -> dict[int, np.ndarray]:
-        """The task's step of every sub-env (:meth:`Task.step`): with two or more chunks of ``SPLIT_MIN_ROWS`` rows
-        and of threads (:func:`_split_helpers`), its kernel runs over chunks of rows in this thread and helper
-        threads at once (:class:`kernel_split.SplitKernel`), where it can be split: its arguments that are the
-        arrays of ``state``, ``out`` and ``actions`` themselves are split by rows, the others passed whole; and
-        each chunk copies its rows of the state arrays that the info reports (but ``step``, which the bookkeeping
-        after the kernel counts), for the info (each thread copies the rows it wrote). The split's second call is
-        the task's restart kernel (:meth:`_restart_call_to_split`). Returns those copies by the ids of their state
-        arrays (none where not split)."""
+        """The task's step of every sub-env (:meth:`Task.step`): with two or more chunks of ``SPLIT_MIN_ROWS`` rows and
+        of threads (:func:`_split_helpers`), its kernel runs over chunks of rows in this thread and helper threads at
+        once (:class:`kernel_split.SplitKernel`, which may run them all in this thread), where it can be split: its
+        arguments that are the arrays of ``state``, ``out`` and ``actions`` themselves are split by rows, the others
+        passed whole; and each chunk copies its rows of the state arrays that the info reports (but ``step``, which the
+        bookkeeping after the kernel counts), for the info (each thread copies the rows it wrote). The split's second
+        call is the task's restart kernel (:meth:`_restart_call_to_split`). Returns those copies by the ids of their
+        state arrays (none where not split)."""
         if self._split_helpers < 1:
             self.task.step(state, actions, out)
             return {}

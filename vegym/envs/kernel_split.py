@@ -8,9 +8,9 @@ that has taken a chunk is waited for, and one descheduled then delays the step).
 never takes the GIL. Handing work to a sleeping thread took 60-130 us on the 2-core VM this was measured on, about
 half of an 8,192-env step, so a helper spins between jobs, for ``SPIN_ROUNDS`` rounds (about 0.2 ms here), then
 naps in ``usleep`` calls that double from ``MIN_NAP_US`` to ``MAX_NAP_US``, which hand its core back; a job posted
-while it naps (the calling thread takes its chunks) starts the spin again. Where the calls go slower over the
-threads than in the calling thread alone (on a host that shares the cores' time, say), they run alone, the helpers
-napping: :class:`ModeChooser` times both ways. Splitting needs POSIX ``usleep`` and numba's type fingerprints;
+while it naps (the calling thread takes its chunks) starts the spin again. Where the calls go at least 10% faster in
+the calling thread alone than over the threads (on a host that shares the cores' time, say), they run alone, the
+helpers napping: :class:`ModeChooser` times both ways. Splitting needs POSIX ``usleep`` and numba's type fingerprints;
 without them kernels run unsplit.
 """
 
@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import math
 import os
 import platform
 import statistics
@@ -54,17 +55,24 @@ for a helper's chunk before it naps between looks: each an x86 ``pause`` (about 
 x86 generations), a bare read elsewhere (so helpers nap sooner)."""
 MIN_NAP_US, MAX_NAP_US = 50, 10_000
 """A napping helper's first and longest ``usleep`` (us); the longest also bounds how long stopping it takes."""
-PROBE_INTERVAL_S = 0.5
-"""Seconds between trials of the way of running a split's calls not in use (:class:`ModeChooser`)."""
+PROBE_INTERVAL_S, MAX_PROBE_INTERVAL_S = 0.5, 4.0
+"""Seconds of stepping (pauses not counted) between trials of the way of running a split's calls not in use
+(:class:`ModeChooser`): the first, and the longest, to which each trial that keeps the way in use doubles it."""
 PROBE_CALLS = 8
 """Calls timed in each way for a comparison: the trial's, and the latest ones of the way in use."""
 PROBE_MARGIN = 0.9
 """A trial's way is taken where its median call time is below this fraction of the other's."""
+SLOWDOWN = 1.25
+"""The way in use slowing by this factor (the median of its latest calls against that at the last trial's end)
+brings the next trial forward."""
+PAUSE = 10.0
+"""An interval this many times the way in use's median is a pause of the caller's (between bursts of steps, say):
+not timed, and not counted as stepping."""
 SOLO_SETTLE_S = 1e-3
-"""Seconds of a trial of running in the calling thread alone not timed: the helpers spin after the last job posted
-(``SPIN_ROUNDS``, about 0.2 ms)."""
+"""Seconds after a change to running in the calling thread alone not timed: the helpers spin after the last job
+posted (``SPIN_ROUNDS``, about 0.2 ms)."""
 SPLIT_SETTLE_S = 2e-6 * MAX_NAP_US
-"""Seconds of a trial of running over threads not timed: a napping helper takes up to ``MAX_NAP_US`` to look."""
+"""Seconds after a change to running over threads not timed: twice the longest nap a helper may be in then."""
 
 _TICKET, _FINISHED, _RESULT, _FAILED, _STOP, _KIND = (8 * k for k in range(6))
 """Slots of the control array (int64), each in a 64-byte cache line of its own: the ticket ``job << 32 | chunk``,
@@ -462,20 +470,35 @@ class ModeChooser:
     """Chooses, call by call, whether a split runs its chunks over its threads or all in the calling thread
     ("solo", the helpers left to nap), from the times between the starts of its first call's runs: each counts for
     the way the earlier run went, with what the calling thread did before the next (the rest of an env's step,
-    which a helper spinning on a shared core slows). It starts split; every ``PROBE_INTERVAL_S`` seconds it tries
-    the other way for ``PROBE_CALLS`` timed calls, after ``SOLO_SETTLE_S`` or ``SPLIT_SETTLE_S`` (while the helpers
-    still spin, or nap), and keeps to it where their median is below ``PROBE_MARGIN`` times that of the latest
-    ``PROBE_CALLS`` the way in use."""
+    which a helper spinning on a shared core slows).
+
+    It starts split. After ``PROBE_INTERVAL_S`` seconds of stepping, or sooner where the way in use slows by
+    ``SLOWDOWN``, it tries the other way for ``PROBE_CALLS`` timed calls and keeps to it where their median is
+    below ``PROBE_MARGIN`` times that of the latest ``PROBE_CALLS`` calls the way in use: then the interval starts
+    again from ``PROBE_INTERVAL_S``; otherwise it goes back and the interval doubles, up to
+    ``MAX_PROBE_INTERVAL_S``. After each change of way the calls of the first ``SOLO_SETTLE_S`` or
+    ``SPLIT_SETTLE_S`` are not timed (the helpers still spin, or nap). Intervals of more than ``PAUSE`` times the
+    way in use's median (the caller paused) count for nothing."""
 
     def __init__(self) -> None:
         self.solo = False
         """Whether calls run in the calling thread alone."""
         self._latest: list[float] = []
-        """Times (s) between the latest calls the way in use."""
+        """Times (s) between the latest calls the way in use, at most ``PROBE_CALLS``."""
+        self._counted = 0
+        """Calls of the way in use timed since the last trial."""
+        self._typical = math.inf
+        """The median of ``_latest`` when it was last full of fresh times (inf before)."""
+        self._reference = math.inf
+        """``_typical`` at the last trial's end (inf before)."""
+        self._stepping = 0.0
+        """Seconds of stepping the way in use since the last trial."""
+        self._interval = PROBE_INTERVAL_S
         self._trial: list[float] | None = None
         """Times (s) between the trial's calls so far, None between trials."""
-        self._trial_start = 0.0
-        self._next_trial = 0.0
+        self._settled = 0.0
+        """When the helpers have settled into the way of the calls since the last change of way: calls that start
+        sooner are not timed."""
         self._last: float | None = None
         """When the previous call started."""
 
@@ -483,25 +506,40 @@ class ModeChooser:
         """Whether a call starting at ``now`` (``time.perf_counter`` seconds) runs solo; the time since the
         previous call's start counts for the way that call ran."""
         last, self._last = self._last, now
-        if last is None:
-            self._next_trial = now + PROBE_INTERVAL_S
+        if last is None or last < self._settled:
             return self.solo
-        if self._trial is None:
-            self._latest.append(now - last)
-            if len(self._latest) > PROBE_CALLS:
-                del self._latest[0]
-            if now >= self._next_trial and len(self._latest) == PROBE_CALLS:
-                self._trial, self._trial_start, self.solo = [], now, not self.solo
-            return self.solo
-        if last >= self._trial_start + (SOLO_SETTLE_S if self.solo else SPLIT_SETTLE_S):
+        if self._trial is not None:
             self._trial.append(now - last)
-        if len(self._trial) == PROBE_CALLS:
-            if statistics.median(self._trial) < PROBE_MARGIN * statistics.median(self._latest):
-                self._latest = self._trial
-            else:
-                self.solo = not self.solo
-            self._trial, self._next_trial = None, now + PROBE_INTERVAL_S
+            if len(self._trial) == PROBE_CALLS:
+                self._end_trial(now)
+            return self.solo
+        if now - last > PAUSE * self._typical:
+            return self.solo
+        self._latest.append(now - last)
+        if len(self._latest) > PROBE_CALLS:
+            del self._latest[0]
+        self._counted += 1
+        self._stepping += now - last
+        if self._counted % PROBE_CALLS == 0:
+            self._typical = statistics.median(self._latest)
+            if self._stepping >= self._interval or self._typical > SLOWDOWN * self._reference:
+                self._trial = []
+                self._change_way(now)
         return self.solo
+
+    def _change_way(self, now: float) -> None:
+        self.solo = not self.solo
+        self._settled = now + (SOLO_SETTLE_S if self.solo else SPLIT_SETTLE_S)
+
+    def _end_trial(self, now: float) -> None:
+        """Keep the trial's way or go back, and start the interval to the next trial."""
+        trial = statistics.median(self._trial)
+        if trial < PROBE_MARGIN * self._typical:
+            self._latest, self._typical, self._interval = self._trial, trial, PROBE_INTERVAL_S
+        else:
+            self._change_way(now)
+            self._interval = min(2.0 * self._interval, MAX_PROBE_INTERVAL_S)
+        self._reference, self._trial, self._counted, self._stepping = self._typical, None, 0, 0.0
 
 
 class SplitKernel:
@@ -516,7 +554,8 @@ class SplitKernel:
     same helpers run too (``job=1``): its batch arguments, all of one length, are split by their first axis in the
     same way, but the others may have as many rows (row indices split between chunks that write those rows of whole
     arrays, say); each chunk must write what no other chunk writes or reads. A second call that cannot be split is
-    left out (no call fits ``job=1``). :meth:`close` (or dropping it) stops the helpers.
+    left out (no call fits ``job=1``). Both calls run over the threads or all in the calling thread, as
+    :attr:`chooser` decides from the first's times. :meth:`close` (or dropping it) stops the helpers.
     ``ValueError`` where the kernel cannot be split (then call it unsplit): not a kernel numba caches on disk,
     arguments the shim cannot take, a whole argument with as many rows as the batch ones (a row array that is not
     marked), no ``usleep``, or no thread to be had."""
