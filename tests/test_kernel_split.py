@@ -70,7 +70,6 @@ class _Alone(kernel_split.ModeChooser):
 def _run_alone(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(kernel_split, "ModeChooser", _Alone)
     monkeypatch.setattr(kernel_split, "PROBE_INTERVAL_S", math.inf)
-    monkeypatch.setattr(kernel_split, "SLOWDOWN", math.inf)
 
 
 def _posted_jobs(split: SplitKernel) -> int:
@@ -557,15 +556,6 @@ def test_the_chooser_takes_the_split_back_where_it_is_faster_at_all_but_leaves_i
     back = starts[np.argmin(ways)]
     assert back < 3.0 + kernel_split.PROBE_INTERVAL_S + kernel_split.SOLO_SETTLE_S + 0.05
     assert (~ways[starts > back + kernel_split.SPLIT_SETTLE_S + 0.01]).mean() > 0.99
-
-
-def test_the_way_in_use_slowing_brings_the_next_trial_forward() -> None:
-    chooser = kernel_split.ModeChooser()
-    assert not _run(chooser, lambda alone, _: 350e-6 if alone else 200e-6, 5.0)[1][-1]  # trials at 0.5, 1.5, 3.5 s
-    starts, ways = _run(chooser, lambda alone, _: 350e-6 if alone else 500e-6, 1.0, start=5.0)
-    moved = starts[np.argmax(ways)]
-    assert moved < 5.0 + 0.01  # not at about 7.5 s, 4 s of stepping after the last trial
-    assert ways[(starts > moved) & (starts < moved + kernel_split.PROBE_INTERVAL_S)].all()
 
 
 def test_pauses_between_bursts_of_calls_do_not_count_as_stepping() -> None:

@@ -63,9 +63,6 @@ PROBE_CALLS = 16
 PROBE_MARGIN = 0.85
 """A trial alone is kept where its median call time is below this fraction of the split's (a trial of the split,
 where below the time alone: the split is the way to expect on an idle machine)."""
-SLOWDOWN = 1.25
-"""The way in use slowing by this factor (the median of its latest calls against that at the last trial's end)
-brings the next trial forward."""
 PAUSE = 10.0
 """An interval this many times the way in use's median is a pause of the caller's (between bursts of steps, say):
 not timed, and not counted as stepping."""
@@ -473,16 +470,15 @@ class ModeChooser:
     the way the earlier run went, with what the calling thread did before the next (the rest of an env's step,
     which a helper spinning on a shared core slows).
 
-    It starts split. After ``PROBE_INTERVAL_S`` seconds of stepping, or sooner where the way in use slows by
-    ``SLOWDOWN``, it tries the other way for ``PROBE_CALLS`` timed calls and keeps to it where their median is
-    below that of the latest ``PROBE_CALLS`` calls the way in use, times ``PROBE_MARGIN`` for a trial alone. A
-    trial alone that keeps the split doubles the interval to the next, up to ``MAX_PROBE_INTERVAL_S``; otherwise it
-    starts again from ``PROBE_INTERVAL_S``. After each change of way the calls of the first ``SOLO_SETTLE_S`` or
-    ``SPLIT_SETTLE_S`` are not timed (the helpers still spin, or nap). Intervals of more than ``PAUSE`` times the
-    way in use's median (the caller paused) count for nothing.
+    It starts split. After ``PROBE_INTERVAL_S`` seconds of stepping it tries the other way for ``PROBE_CALLS`` timed
+    calls and keeps to it where their median is below that of the latest ``PROBE_CALLS`` calls the way in use, times
+    ``PROBE_MARGIN`` for a trial alone. A trial alone that keeps the split doubles the interval to the next, up to
+    ``MAX_PROBE_INTERVAL_S``; otherwise it starts again from ``PROBE_INTERVAL_S``. After each change of way the
+    calls of the first ``SOLO_SETTLE_S`` or ``SPLIT_SETTLE_S`` are not timed (the helpers still spin, or nap).
+    Intervals of more than ``PAUSE`` times the way in use's median (the caller paused) count for nothing.
 
-    On the 2-core VM this was measured on, with a busy process beside it, 8,192 envs stepped 1.38x (SteerableWheel)
-    and 1.47x (ProjectileAdjust) as fast as with the split always on; idle, 0.97-0.99x, 1.05x and 1.00x (Aircraft)."""
+    On the 2-core VM this was measured on, 8,192 ProjectileAdjust envs stepped 1.25x as fast as with the split
+    always on beside a busy process, and 1.10x idle; SteerableWheel 0.97x and AircraftGusty 0.99x idle."""
 
     def __init__(self) -> None:
         self.solo = False
@@ -493,8 +489,6 @@ class ModeChooser:
         """Calls of the way in use timed since the last trial."""
         self._typical = math.inf
         """The median of ``_latest`` when it was last full of fresh times (inf before)."""
-        self._reference = math.inf
-        """``_typical`` at the last trial's end (inf before)."""
         self._stepping = 0.0
         """Seconds of stepping the way in use since the last trial."""
         self._interval = PROBE_INTERVAL_S
@@ -526,7 +520,7 @@ class ModeChooser:
         self._stepping += now - last
         if self._counted % PROBE_CALLS == 0:
             self._typical = statistics.median(self._latest)
-            if self._stepping >= self._interval or self._typical > SLOWDOWN * self._reference:
+            if self._stepping >= self._interval:
                 self._trial = []
                 self._change_way(now)
         return self.solo
@@ -543,7 +537,7 @@ class ModeChooser:
         else:
             self._change_way(now)
             self._interval = PROBE_INTERVAL_S if self.solo else min(2.0 * self._interval, MAX_PROBE_INTERVAL_S)
-        self._reference, self._trial, self._counted, self._stepping = self._typical, None, 0, 0.0
+        self._trial, self._counted, self._stepping = None, 0, 0.0
 
 
 class SplitKernel:
