@@ -796,8 +796,8 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
     this process may run on, or ``VEGYM_NUM_THREADS``, read when the env is made), a step's kernel runs over chunks
     of rows in the calling thread and daemon helper threads at once, with the same results; the helpers spin for
     about 0.2 ms after each step and then nap, and ``close()`` or dropping the env stops them. Where the calling
-    thread alone steps at least 10% faster (tried after half a second of stepping, then less often, and at once
-    when steps slow down), it runs them alone while that lasts.
+    thread alone steps at least 15% faster (tried after half a second of stepping, then less often while the
+    split stays), it runs them alone while that lasts.
     ``VEGYM_NUM_THREADS=1`` keeps every vector env to the calling thread.
     """
 

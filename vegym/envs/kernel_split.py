@@ -8,7 +8,7 @@ that has taken a chunk is waited for, and one descheduled then delays the step).
 never takes the GIL. Handing work to a sleeping thread took 60-130 us on the 2-core VM this was measured on, about
 half of an 8,192-env step, so a helper spins between jobs, for ``SPIN_ROUNDS`` rounds (about 0.2 ms here), then
 naps in ``usleep`` calls that double from ``MIN_NAP_US`` to ``MAX_NAP_US``, which hand its core back; a job posted
-while it naps (the calling thread takes its chunks) starts the spin again. Where the calls go at least 10% faster in
+while it naps (the calling thread takes its chunks) starts the spin again. Where the calls go at least 15% faster in
 the calling thread alone than over the threads (on a host that shares the cores' time, say), they run alone, the
 helpers napping: :class:`ModeChooser` times both ways. Splitting needs POSIX ``usleep`` and numba's type fingerprints;
 without them kernels run unsplit.
