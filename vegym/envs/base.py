@@ -593,21 +593,23 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None) -> tuple[np.ndarray, Info]:
         """Start an episode: the seeded one, or without a seed the next one of this env's sequence (the first drawn
         from ``np_random``). There are no reset options; any key in ``options`` raises ``ValueError``."""
-        if options:  # a test of its own: Projectile's and Billiards's single envs reset after every step
+        if options:
             check_reset_options(options, ())
         seeded = rng.seed_keys([seed]) if seed is not None else None  # a bad seed raises before anything changes
-        super().reset(seed=seed)
         state = self.state
-        if state is None:
-            key = seeded if seeded is not None else self.np_random.integers(0, 2**64, 1, np.uint64)
-            self._bind(owned({**self.task.initial_state(key), "key": key, "step": np.zeros(1, dtype=np.int64)}))
-            self.task.observe(self.state, self._out["obs"])
+        if state is not None and state is not self._bound_state:
+            self._bind(state)
+        if seeded is None and state is not None:
+            # the next episode of the sequence, which one-step episodes (Projectile's, Billiards's) start after every
+            # step: kept short, without gymnasium's Env.reset, which does nothing without a seed
+            self._steps[0] = 0
+            self._restart()
         else:
-            if state is not self._bound_state:
-                self._bind(state)
-            if seed is None:
-                self._steps[0] = 0
-                self._restart()
+            super().reset(seed=seed)
+            if state is None:
+                key = seeded if seeded is not None else self.np_random.integers(0, 2**64, 1, np.uint64)
+                self._bind(owned({**self.task.initial_state(key), "key": key, "step": np.zeros(1, dtype=np.int64)}))
+                self.task.observe(self.state, self._out["obs"])
             else:
                 state["key"][:] = seeded
                 self.task.start(state, state["key"], _ROW_0)
