@@ -6,7 +6,7 @@ by an atomic compare-and-swap on one counter that also names the job, so a chunk
 late, napping or stopped only leaves more chunks to the caller: results never depend on the helpers (a helper
 that has taken a chunk is waited for, and one descheduled then delays the step). A helper is a compiled loop that
 never takes the GIL. Handing work to a sleeping thread took 60-130 us on the 2-core VM this was measured on, about
-half of an 8,192-env step, so a helper spins between jobs, for ``SPIN_ROUNDS`` rounds (about 0.2 ms here), then
+half of an 8,192-env step, so a helper spins between jobs, for ``SPIN_S`` (0.2 ms, in rounds timed once), then
 naps in ``usleep`` calls that double from ``MIN_NAP_US`` to ``MAX_NAP_US``, which hand its core back; a job posted
 while it naps (the calling thread takes its chunks) starts the spin again. Where the calls go at least 15% faster in
 the calling thread alone than over the threads (on a host that shares the cores' time, say), they run alone, the
@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import functools
 import math
 import os
 import platform
@@ -49,10 +50,9 @@ SPLIT_MIN_ROWS = 4096
 """Rows per chunk at least: a vector env's step kernel runs in ``min(threads, num_envs // SPLIT_MIN_ROWS)``
 chunks, one per thread, where that is two or more. (With fewer rows a step is mostly Python, which a spinning
 helper slows; and more chunks than threads were slower, each chunk costing a few microseconds.)"""
-SPIN_ROUNDS = 8192
-"""Idle rounds a helper spins through after each job posted before it naps, and rounds the calling thread waits
-for a helper's chunk before it naps between looks: each an x86 ``pause`` (about 26 ns here; 10-140 cycles across
-x86 generations), a bare read elsewhere (so helpers nap sooner)."""
+SPIN_S = 2e-4
+"""Seconds a helper spins after each job posted before it naps, and the calling thread waits for a helper's chunk
+before it naps between looks: :func:`spin_rounds` rounds, each an x86 ``pause`` (a bare read elsewhere)."""
 MIN_NAP_US, MAX_NAP_US = 50, 10_000
 """A napping helper's first and longest ``usleep`` (us); the longest also bounds how long stopping it takes."""
 PROBE_INTERVAL_S, MAX_PROBE_INTERVAL_S = 0.5, 4.0
@@ -68,7 +68,7 @@ PAUSE = 10.0
 not timed, and not counted as stepping."""
 SOLO_SETTLE_S = 1e-3
 """Seconds after a change to running in the calling thread alone not timed: the helpers spin after the last job
-posted (``SPIN_ROUNDS``, about 0.2 ms)."""
+posted (``SPIN_S``)."""
 SPLIT_SETTLE_S = 2e-6 * MAX_NAP_US
 """Seconds after a change to running over threads not timed: twice the longest nap a helper may be in then."""
 
@@ -593,6 +593,7 @@ class SplitKernel:
         self.control = _aligned_zeros(_SLOTS)
         self.control[_TICKET] = self.chunks  # job 0, every chunk taken: nothing to do until the first call
         self._naps = (_USLEEP, MIN_NAP_US, MAX_NAP_US)
+        self._spin_rounds = spin_rounds()
         self.chooser = ModeChooser()
         """Whether calls run over the threads or in the calling thread alone, chosen from the first call's
         times."""
@@ -621,7 +622,7 @@ class SplitKernel:
         self.close = weakref.finalize(self, _stop, self.control, threads)
         """Stop the helpers (each after the chunk it holds; later calls run every chunk in the calling thread)."""
         serve_args = (
-            self.control, (first.table, last.table), first.scalars, last.scalars, self.chunks, SPIN_ROUNDS,
+            self.control, (first.table, last.table), first.scalars, last.scalars, self.chunks, self._spin_rounds,
             self._naps, first.layout, first.batch, last.layout, last.batch,
         )  # fmt: skip
         try:
@@ -654,7 +655,7 @@ class SplitKernel:
         solo = self.chooser.choose(time.perf_counter()) if job == 0 else self.chooser.solo
         try:
             result, failed = target.call(
-                self.control, target.table, args, self.chunks, SPIN_ROUNDS, self._naps, job, solo, target.layout,
+                self.control, target.table, args, self.chunks, self._spin_rounds, self._naps, job, solo, target.layout,
                 target.batch,
             )  # fmt: skip
         except Exception:  # the calling thread's chunk raised (a KeyboardInterrupt comes after the call returned)
@@ -664,6 +665,33 @@ class SplitKernel:
             self.close()
             raise self.errors[0]
         return result
+
+
+@njit(cache=True, nogil=True)
+def _spin(control: np.ndarray, rounds: int) -> int:
+    """``rounds`` idle rounds as a helper spins through them: two acquire loads of ``control`` and a ``pause``."""
+    seen = 0
+    for _ in range(rounds):
+        seen += _load_acquire(control, _STOP) + _load_acquire(control, _TICKET)
+        _pause()
+    return seen
+
+
+@functools.cache
+def spin_rounds() -> int:
+    """The idle rounds that last ``SPIN_S`` on this CPU, timed once per process: the fastest of five runs of 4,096
+    (a run the host interrupts looks slower; more rounds only spin longer). A ``pause`` takes 10-140 cycles across
+    x86 generations: 26 ns on one host of the VM this was measured on and 9 ns on another, where the fixed 8,192
+    rounds used before spun for 70 us, less than the Python between two steps of 8,192 envs, so that helpers napped
+    and one step in ten waited for one to wake."""
+    control = _aligned_zeros(_SLOTS)
+    _spin(control, 1)
+    fastest = math.inf
+    for _ in range(5):
+        start = time.perf_counter()
+        _spin(control, 4096)
+        fastest = min(fastest, time.perf_counter() - start)
+    return max(1, math.ceil(SPIN_S * 4096 / max(fastest, 1e-9)))
 
 
 def _aligned_zeros(count: int) -> np.ndarray:
