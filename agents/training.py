@@ -197,9 +197,30 @@ def raise_keyboard_interrupt(signum: int, frame: Any) -> None:
     raise KeyboardInterrupt
 
 
+def _ignore_repeats_until(deadline: float) -> None:
+    """Handlers for the :data:`INTERRUPTS` that ignore those that come before ``deadline`` (``time.monotonic``) and
+    hand a later one back to the handler they replaced, which then handles it; in the main thread only."""
+    if threading.current_thread() is not threading.main_thread():
+        return
+    replaced = {signum: signal.getsignal(signum) for signum in INTERRUPTS}
+
+    def ignore_or_hand_back(signum: int, frame: Any) -> None:
+        if time.monotonic() <= deadline:
+            return
+        before = replaced[signum]
+        signal.signal(signum, signal.SIG_DFL if before is None else before)
+        signal.raise_signal(signum)
+
+    for signum in INTERRUPTS:
+        signal.signal(signum, ignore_or_hand_back)
+
+
 class StopOnInterrupt(BaseCallback):
     """Turns the first SIGINT (Ctrl-C) or SIGTERM within :meth:`catching` into a clean stop at the next env step; a
-    later one aborts (KeyboardInterrupt). Also stops there once ``stop`` (an event, e.g. a parent process's) is set."""
+    later one aborts (KeyboardInterrupt), but for a repeat within ``REPEAT_WINDOW_S`` of the first, which is the same
+    interrupt, ignored also once the block has ended (else one that comes as the process exits, after an
+    interrupted ``vegym train``, is raised in ``threading``'s shutdown or an exit handler and prints a traceback).
+    Also stops there once ``stop`` (an event, e.g. a parent process's) is set."""
 
     def __init__(self, stop: Any = None) -> None:
         super().__init__()
@@ -207,10 +228,15 @@ class StopOnInterrupt(BaseCallback):
         self._stop = stop
         self._first_at: float | None = None
 
-    def catching(self) -> contextlib.AbstractContextManager[None]:
+    @contextlib.contextmanager
+    def catching(self) -> Iterator[None]:
         """Catch the interrupts until the block ends: around the training and the saves after it, so that an
-        interrupt never cuts a save short unasked."""
-        return interrupts_handled(self._handle)
+        interrupt never cuts a save short unasked. After an interrupt, repeats are ignored until ``REPEAT_WINDOW_S``
+        after it; later ones go to the handlers from before the block."""
+        with interrupts_handled(self._handle):
+            yield
+        if self._first_at is not None:
+            _ignore_repeats_until(self._first_at + REPEAT_WINDOW_S)
 
     def _handle(self, signum: int, frame: Any) -> None:
         now = time.monotonic()

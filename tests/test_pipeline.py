@@ -11,6 +11,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import textwrap
 import threading
 import time
 import zipfile
@@ -679,6 +680,34 @@ def test_an_interrupt_saves_a_loadable_model_and_resume_continues(tmp_path: Path
     assert saved_timesteps(out / "model.zip") >= stopped + 200
     assert load_resolved(out / "config.yml").n_timesteps == stopped + 200
     assert json.loads((out / "train_stats.json").read_text())["interrupted"] is False
+
+
+def test_an_interrupt_repeated_while_the_process_exits_is_ignored_not_printed_as_a_traceback() -> None:
+    """After a run stopped by an interrupt, a repeat that arrives once the run's handlers are gone, while the
+    interpreter exits (Ctrl-C pressed again, or ``timeout -s INT``'s signal to the process group late on a loaded
+    machine), is ignored: raised there, it printed an exit handler's traceback (seen in the test above)."""
+    script = textwrap.dedent(
+        """
+        import os, signal, time, weakref
+        from agents.training import StopOnInterrupt
+        stop = StopOnInterrupt()
+        with stop.catching():
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.05)
+        assert stop.interrupted
+        class Finalized:
+            pass
+        def interrupt_again():
+            os.kill(os.getpid(), signal.SIGINT)
+            time.sleep(0.05)
+        kept = Finalized()
+        weakref.finalize(kept, interrupt_again)  # runs while the interpreter exits
+        print("stopped")
+        """
+    )
+    proc = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0 and proc.stdout == "stopped\n", proc.stderr
+    assert proc.stderr == ""
 
 
 def test_resume_keeps_the_earlier_evaluations(tmp_path: Path) -> None:
@@ -1460,6 +1489,32 @@ def test_a_second_interrupt_after_the_repeat_window_aborts(monkeypatch: pytest.M
     clock[0] += 2 * REPEAT_WINDOW_S
     with pytest.raises(KeyboardInterrupt):
         stopper._handle(signal.SIGINT, None)
+
+
+def test_after_the_block_a_repeat_is_ignored_within_the_window_and_a_later_one_handed_back(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    clock = [100.0]
+    monkeypatch.setattr(training.time, "monotonic", lambda: clock[0])
+    seen: list[int] = []
+    before = {signum: signal.getsignal(signum) for signum in training.INTERRUPTS}
+    signal.signal(signal.SIGINT, lambda signum, frame: seen.append(signum))
+    try:
+        stopper = StopOnInterrupt()
+        with stopper.catching():
+            signal.raise_signal(signal.SIGINT)
+        assert stopper.interrupted and seen == []
+        clock[0] += REPEAT_WINDOW_S  # the block has ended: still the same interrupt
+        signal.raise_signal(signal.SIGINT)
+        assert seen == []
+        clock[0] += 0.1
+        signal.raise_signal(signal.SIGINT)  # a new one: the handler from before the block handles it
+        assert seen == [signal.SIGINT]
+        signal.raise_signal(signal.SIGINT)  # and is back in place
+        assert seen == [signal.SIGINT, signal.SIGINT]
+    finally:
+        for signum, handler in before.items():
+            signal.signal(signum, handler)
 
 
 def test_a_model_trained_on_another_env_is_refused(tmp_path: Path) -> None:
