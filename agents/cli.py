@@ -140,7 +140,7 @@ def cmd_train(args: argparse.Namespace) -> int:
         held = held_timesteps(source)
         start = source.name if held is None else f"{held} steps ({source.name})"
         say(f"resuming {config.algo} on {config.env_id} in {out} from {start}, to {planned} in all")
-    result = train(config, out, resume=args.resume, progress_bar=not args.no_progress, command=command)
+    result = train(config, out, resume=args.resume, progress_bar=not args.no_progress, command=command, exiting=True)
     if result.interrupted:
         say(f"interrupted at {result.timesteps} steps; saved {result.model_path}; continue with --resume")
         return 130

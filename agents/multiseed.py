@@ -93,6 +93,7 @@ def _train_seed(
             callbacks=[_ReportProgress(config.seed, channel)],
             stop=stop,
             verbose=False,  # the parent shows one progress line per seed
+            exiting=True,
         )
         channel.put(("done", config.seed, result))
     except KeyboardInterrupt:

@@ -217,26 +217,29 @@ def _ignore_repeats_until(deadline: float) -> None:
 
 class StopOnInterrupt(BaseCallback):
     """Turns the first SIGINT (Ctrl-C) or SIGTERM within :meth:`catching` into a clean stop at the next env step; a
-    later one aborts (KeyboardInterrupt), but for a repeat within ``REPEAT_WINDOW_S`` of the first, which is the same
-    interrupt, ignored also once the block has ended (else one that comes as the process exits, after an
-    interrupted ``vegym train``, is raised in ``threading``'s shutdown or an exit handler and prints a traceback).
-    Also stops there once ``stop`` (an event, e.g. a parent process's) is set."""
+    later one aborts (KeyboardInterrupt), but for a repeat within ``REPEAT_WINDOW_S`` of the first, the same
+    interrupt. Also stops there once ``stop`` (an event, e.g. a parent process's) is set. With ``exiting`` (the
+    process ends after the run), such repeats are ignored after the block too: one that came as the process exited
+    was raised in ``threading``'s shutdown or an exit handler, which printed its traceback."""
 
-    def __init__(self, stop: Any = None) -> None:
+    def __init__(self, stop: Any = None, exiting: bool = False) -> None:
         super().__init__()
         self.interrupted = False
         self._stop = stop
+        self._exiting = exiting
         self._first_at: float | None = None
 
     @contextlib.contextmanager
     def catching(self) -> Iterator[None]:
         """Catch the interrupts until the block ends: around the training and the saves after it, so that an
-        interrupt never cuts a save short unasked. After an interrupt, repeats are ignored until ``REPEAT_WINDOW_S``
-        after it; later ones go to the handlers from before the block."""
-        with interrupts_handled(self._handle):
-            yield
-        if self._first_at is not None:
-            _ignore_repeats_until(self._first_at + REPEAT_WINDOW_S)
+        interrupt never cuts a save short unasked. With ``exiting``, after an interrupt, repeats that come after
+        the block are ignored until ``REPEAT_WINDOW_S`` after it; later ones go to the handlers from before."""
+        try:
+            with interrupts_handled(self._handle):
+                yield
+        finally:
+            if self._exiting and self._first_at is not None:
+                _ignore_repeats_until(self._first_at + REPEAT_WINDOW_S)
 
     def _handle(self, signum: int, frame: Any) -> None:
         now = time.monotonic()
@@ -322,13 +325,15 @@ def train(
     callbacks: Sequence[BaseCallback] = (),
     stop: Any = None,
     verbose: bool = True,
+    exiting: bool = False,
 ) -> TrainResult:
     """Train ``config`` into the run directory ``out`` (see the module docstring); ``resume`` continues it.
 
     ``callbacks`` run beside the checkpoint, evaluation and Ctrl-C callbacks (progress reports, pruning); setting
     the event ``stop`` stops the training as Ctrl-C does; ``verbose`` prints SB3's report of each evaluation;
-    ``command``, the command line that makes the run, goes to ``command.txt`` (a resumed run's replaces the old).
-    A resumed run whose ``model.zip`` already holds ``n_timesteps`` steps is left as it is.
+    ``command``, the command line that makes the run, goes to ``command.txt`` (a resumed run's replaces the old);
+    ``exiting`` says that the process ends after the run (see :class:`StopOnInterrupt`). A resumed run whose
+    ``model.zip`` already holds ``n_timesteps`` steps is left as it is.
     """
     out = Path(out)
     start = time.perf_counter()
@@ -364,7 +369,7 @@ def train(
             save_resolved(config, path)
     if command is not None:
         (out / COMMAND_FILE).write_text(command + "\n")
-    stopper = StopOnInterrupt(stop)
+    stopper = StopOnInterrupt(stop, exiting)
     evaluation = EvalCallback(
         eval_env,
         n_eval_episodes=config.n_eval_episodes,

@@ -690,7 +690,7 @@ def test_an_interrupt_repeated_while_the_process_exits_is_ignored_not_printed_as
         """
         import os, signal, time, weakref
         from agents.training import StopOnInterrupt
-        stop = StopOnInterrupt()
+        stop = StopOnInterrupt(exiting=True)
         with stop.catching():
             os.kill(os.getpid(), signal.SIGINT)
             time.sleep(0.05)
@@ -1491,7 +1491,7 @@ def test_a_second_interrupt_after_the_repeat_window_aborts(monkeypatch: pytest.M
         stopper._handle(signal.SIGINT, None)
 
 
-def test_after_the_block_a_repeat_is_ignored_within_the_window_and_a_later_one_handed_back(
+def test_after_an_exiting_runs_block_a_repeat_is_ignored_within_the_window_and_a_later_one_handed_back(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     clock = [100.0]
@@ -1500,7 +1500,14 @@ def test_after_the_block_a_repeat_is_ignored_within_the_window_and_a_later_one_h
     before = {signum: signal.getsignal(signum) for signum in training.INTERRUPTS}
     signal.signal(signal.SIGINT, lambda signum, frame: seen.append(signum))
     try:
-        stopper = StopOnInterrupt()
+        library = StopOnInterrupt()  # a library call's: the handlers from before are back when the block ends
+        with library.catching():
+            signal.raise_signal(signal.SIGINT)
+        assert library.interrupted
+        signal.raise_signal(signal.SIGINT)
+        assert seen == [signal.SIGINT]
+        seen.clear()
+        stopper = StopOnInterrupt(exiting=True)
         with stopper.catching():
             signal.raise_signal(signal.SIGINT)
         assert stopper.interrupted and seen == []

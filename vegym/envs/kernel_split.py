@@ -52,7 +52,8 @@ chunks, one per thread, where that is two or more. (With fewer rows a step is mo
 helper slows; and more chunks than threads were slower, each chunk costing a few microseconds.)"""
 SPIN_S = 2e-4
 """Seconds a helper spins after each job posted before it naps, and the calling thread waits for a helper's chunk
-before it naps between looks: :func:`spin_rounds` rounds, each an x86 ``pause`` (a bare read elsewhere)."""
+before it naps between looks: :func:`spin_rounds` rounds, each an x86 ``pause`` (elsewhere the rounds' reads
+alone, spinning as long)."""
 MIN_NAP_US, MAX_NAP_US = 50, 10_000
 """A napping helper's first and longest ``usleep`` (us); the longest also bounds how long stopping it takes."""
 PROBE_INTERVAL_S, MAX_PROBE_INTERVAL_S = 0.5, 4.0
@@ -691,7 +692,7 @@ def spin_rounds() -> int:
         start = time.perf_counter()
         _spin(control, 4096)
         fastest = min(fastest, time.perf_counter() - start)
-    return max(1, math.ceil(SPIN_S * 4096 / max(fastest, 1e-9)))
+    return max(1, math.ceil(SPIN_S * 4096 / max(fastest, 1e-6)))  # a coarse clock's 0: at most 0.8M rounds
 
 
 def _aligned_zeros(count: int) -> np.ndarray:
