@@ -927,6 +927,51 @@ def test_infinite_and_oversized_parameters_raise_value_errors_naming_them(env_id
                 params_cls(**{f.name: infinite})
 
 
+EMPTIED_RANGES = [
+    ("Aircraft-v0", {"floor_altitude": 2000.0}, "altitude_min=1000.0", "[floor_altitude=2000.0, altitude_max=1600.0]",
+     "floor_altitude must not exceed altitude_max"),
+    ("Aircraft-v0", {"min_speed": 160.0}, "speed_demand_min=90.0", "[min_speed=160.0, speed_demand_max=150.0]",
+     "min_speed must not exceed speed_demand_max"),
+    ("Aircraft-v0", {"max_speed": 80.0}, "speed_demand_max=150.0", "[speed_demand_min=90.0, max_speed=80.0]",
+     "speed_demand_min must not exceed max_speed"),
+    ("AircraftGusty-v0", {"change_interval_max": 0.5}, "change_interval_min=45.0",
+     "[dt=1.0, change_interval_max=0.5]", "dt must not exceed change_interval_max"),
+    ("BouncingBall-v0", {"radius": 3.0}, "target_min=0.5", "(radius=3.0, target_max=2.5]",
+     "radius must be below target_max"),
+    ("BouncingBall-v0", {"drop_height": 0.4}, "target_max=2.5", "[target_min=0.5, drop_height=0.4]",
+     "target_min must not exceed drop_height"),
+    ("Projectile-v0", {"radius": 30.0}, "launch_height_min=1.0", "[radius=30.0, launch_height_max=20.0]",
+     "radius must not exceed launch_height_max"),
+    ("Billiards-v0", {"radius_a": 1.5}, "ball_distance_min=0.3",
+     "(radius_a + radius_b = 1.52858, ball_distance_max=1.2]", "radius_a + radius_b must be below ball_distance_max"),
+    ("Suspension-v0", {"mass": 1e9}, "modulus=8000.0", "(mass * gravity = 1e+09 * 9.81 = 9.81e+09, 1e+09]",
+     "mass * gravity must be below 1e+09"),
+    ("PendulumPump-v0", {"dt": 30.0}, "change_interval_min=10.0", "[dt=30.0, change_interval_max=20.0]",
+     "dt must not exceed change_interval_max"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(("env_id", "params", "blamed", "allowed", "conflict"), EMPTIED_RANGES)
+def test_a_range_that_the_changed_parameter_leaves_empty_says_which_bounds_conflict(
+    env_id: str, params: dict[str, float], blamed: str, allowed: str, conflict: str
+) -> None:
+    """A parameter that bounds another one's range (floor_altitude, altitude_min's lower end) can leave that range
+    empty: the error names the other parameter, as the first check that fails, so it also says that no value of it
+    fits and which of the bounds, the parameters to change, conflict (it showed an empty range without saying so,
+    and some bounds without their values)."""
+    with pytest.raises(ValueError) as error:
+        gym.make(f"vegym/{env_id}", **params)
+    assert str(error.value).startswith(f"{blamed} is outside the allowed range {allowed} (an empty range: {conflict})")
+
+
+def test_a_range_that_other_parameters_leave_open_to_a_value_says_nothing_of_conflicts() -> None:
+    with pytest.raises(ValueError) as error:
+        gym.make("vegym/Aircraft-v0", altitude_min=1700.0)
+    assert str(error.value) == (
+        "altitude_min=1700.0 is outside the allowed range [floor_altitude=0.0, altitude_max=1600.0]"
+    )
+
+
 @pytest.mark.parametrize("env_id", ENV_IDS)
 def test_float_parameters_lie_within_the_magnitudes_the_models_compute_with(env_id: str) -> None:
     """Every float parameter's range ends by 1e9 in magnitude and a positive one's starts at 1e-9: beyond them the

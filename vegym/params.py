@@ -84,6 +84,11 @@ def outside(values: Any, meta: typing.Mapping[str, Any]) -> Any:
 
 ParamsT = typing.TypeVar("ParamsT", bound="Params")
 
+Bound = str | float | tuple[str, float] | None
+"""An end of a cross-field range (:meth:`Params.between`): a field's name (shown with its value), a constant, the
+text and value of a bound computed from fields (``("arena_size / 2 = 10", 10.0)``; the text before `` = `` names
+it), or None for the field's own end."""
+
 INT64_RANGE = (-(2**63), 2**63 - 1)
 """The integers a parameter may hold: those of the kernels' int64."""
 
@@ -91,7 +96,7 @@ INT64_RANGE = (-(2**63), 2**63 - 1)
 class Params:
     """Mixin for ``@dataclass(frozen=True)`` parameter sets: type and range checks on construction.
 
-    Subclasses add cross-field checks by overriding :meth:`validate` (raise :func:`invalid`).
+    Subclasses add cross-field checks by overriding :meth:`validate` (raise :meth:`between` or :func:`invalid`).
     """
 
     _hints: ClassVar[dict[type, dict[str, Any]]] = {}
@@ -156,16 +161,36 @@ class Params:
         """The parameters as plain keyword arguments."""
         return dataclasses.asdict(self)  # type: ignore[call-overload]
 
-    def above(self, name: str, upper: str) -> ValueError:
-        """The ``ValueError`` for field ``name`` above a bound that other fields set: its allowed range from the
-        field's own lower end to ``upper``, text that ends the interval (``"pluck_max=0.1]"``, and any reason)."""
-        return invalid(name, getattr(self, name), f"{_low_end(self._metadata(name))}, {upper}")
-
-    def below(self, name: str, lower: str, reason: str = "") -> ValueError:
-        """The ``ValueError`` for field ``name`` below a bound that other fields set: its allowed range from
-        ``lower``, text that opens the interval (``"(min_speed=60"``), to the field's own upper end, then
-        ``reason``."""
-        return invalid(name, getattr(self, name), f"{lower}, {_high_end(self._metadata(name))}{reason}")
+    def between(
+        self,
+        name: str,
+        low: Bound = None,
+        high: Bound = None,
+        *,
+        low_open: bool = False,
+        high_open: bool = False,
+        reason: str = "",
+    ) -> ValueError:
+        """The ``ValueError`` for field ``name`` outside a range that other fields set: ``low`` to ``high``, each
+        a :data:`Bound` (None: the field's own end, and whether it is open), then ``reason``. Where those ends
+        leave no value (``floor_altitude`` above ``altitude_max``, say: the user changed a bound, not ``name``),
+        the message says so and which ends conflict."""
+        meta = self._metadata(name)
+        ends = []
+        for bound, is_open, side in ((low, low_open, "low"), (high, high_open, "high")):
+            if bound is None:
+                bound, is_open = meta[side], meta[f"{side}_open"]
+            if isinstance(bound, str):
+                ends.append((f"{bound}={getattr(self, bound)!r}", bound, getattr(self, bound), is_open))
+            elif isinstance(bound, tuple):
+                text, value = bound
+                ends.append((text, text.split(" = ")[0], value, is_open))
+            else:
+                ends.append((f"{bound:g}", f"{bound:g}", bound, is_open))
+        (low_text, low_label, low_value, low_open), (high_text, high_label, high_value, high_open) = ends
+        allowed = f"{'(' if low_open else '['}{low_text}, {high_text}{')' if high_open else ']'}"
+        empty = empty_range(low_label, low_value, high_label, high_value, low_open or high_open)
+        return invalid(name, getattr(self, name), allowed + empty + reason)
 
     @classmethod
     def _metadata(cls, name: str) -> typing.Mapping[str, Any]:
@@ -204,6 +229,15 @@ def with_arguments(doc: str, params_cls: type[Params]) -> str:
         *(f"{indent}* {line}" for line in params_cls.describe().splitlines()),
     ]
     return "\n".join([*lines[:end], *listed, *lines[end:]])
+
+
+def empty_range(low_label: str, low: float, high_label: str, high: float, open_end: bool = False) -> str:
+    """``" (an empty range: low_label must not exceed high_label)"`` (``be below`` with an ``open_end``) where
+    the ends ``low`` and ``high`` of a range leave no value, else ``""``: for an error that names a parameter whose
+    range other parameters set, which are then what to change."""
+    if low < high or (low == high and not open_end):
+        return ""
+    return f" (an empty range: {low_label} must {'be below' if open_end else 'not exceed'} {high_label})"
 
 
 def invalid(name: str, value: Any, allowed: str) -> ValueError:

@@ -13,7 +13,7 @@ from vegym import rng
 from vegym.envs import schedule
 from vegym.envs.base import Info, KernelCall, State, Task, VegymEnv, VegymVectorEnv
 from vegym.envs.schedule import ScheduledParams
-from vegym.params import Params, invalid, param
+from vegym.params import Params, param
 from vegym.physics import aircraft, vmath
 from vegym.physics.aircraft import STANDARD_RATE, AircraftParams, AircraftState
 
@@ -61,21 +61,13 @@ class AircraftEnvParams(ScheduledParams, Params):
 
     def validate(self) -> None:
         if not self.floor_altitude <= self.altitude_min <= self.altitude_max:
-            raise invalid(
-                "altitude_min",
-                self.altitude_min,
-                f"[floor_altitude={self.floor_altitude}, altitude_max={self.altitude_max}]",
-            )
+            raise self.between("altitude_min", "floor_altitude", "altitude_max")
         if self.altitude_max >= self.ceiling_altitude:
-            raise self.below("ceiling_altitude", f"(altitude_max={self.altitude_max}")
+            raise self.between("ceiling_altitude", "altitude_max", low_open=True)
         if not self.min_speed <= self.speed_demand_min <= self.speed_demand_max:
-            raise invalid(
-                "speed_demand_min",
-                self.speed_demand_min,
-                f"[min_speed={self.min_speed}, speed_demand_max={self.speed_demand_max}]",
-            )
+            raise self.between("speed_demand_min", "min_speed", "speed_demand_max")
         if self.speed_demand_max > self.max_speed:
-            raise invalid("speed_demand_max", self.speed_demand_max, f"[speed_demand_min, max_speed={self.max_speed}]")
+            raise self.between("speed_demand_max", "speed_demand_min", "max_speed")
         _ = self.schedule  # raises ValueError if change_interval_min or final_hold is out of range
 
     @property

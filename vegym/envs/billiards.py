@@ -11,7 +11,7 @@ from numba import njit
 
 from vegym import rng
 from vegym.envs.base import Info, KernelCall, State, Task, VegymEnv, VegymVectorEnv
-from vegym.params import Params, invalid, param
+from vegym.params import Params, param
 from vegym.physics import collision, vmath
 from vegym.physics.columns import scratch
 
@@ -43,23 +43,24 @@ class BilliardsParams(Params):
 
     def validate(self) -> None:
         if not self.ball_distance_min > self.contact_distance:
-            raise self.below("ball_distance_min", f"(radius_a + radius_b = {self.contact_distance:g}")
+            contact = (f"radius_a + radius_b = {self.contact_distance:g}", self.contact_distance)
+            raise self.between("ball_distance_min", contact, "ball_distance_max", low_open=True)
         if self.ball_distance_min > self.ball_distance_max:
-            raise self.above("ball_distance_min", f"ball_distance_max={self.ball_distance_max}]")
+            raise self.between("ball_distance_min", high="ball_distance_max")
         if self.target_distance_min > self.target_distance_max:
-            raise self.above("target_distance_min", f"target_distance_max={self.target_distance_max}]")
+            raise self.between("target_distance_min", high="target_distance_max")
         if not self.bearing_max < self.largest_bearing:
-            allowed = f"[0, acos((radius_a + radius_b) / ball_distance_min) = {self.largest_bearing:.6g})"
-            raise invalid("bearing_max", self.bearing_max, allowed)
+            largest = f"acos((radius_a + radius_b) / ball_distance_min) = {self.largest_bearing:.6g}"
+            raise self.between("bearing_max", high=(largest, self.largest_bearing), high_open=True)
         if not self.required_speed <= self.speed_max:
             depends = (
                 "restitution", "mass_a", "mass_b", "radius_a", "radius_b", "deceleration",
                 "ball_distance_min", "ball_distance_max", "target_distance_max", "bearing_max",
             )  # fmt: skip
-            raise self.below(
+            raise self.between(
                 "speed_max",
-                f"[required_speed={self.required_speed:.4g}",
-                f": the strike the farthest target at bearing_max needs (with {self.named(*depends)}); raise "
+                (f"required_speed = {self.required_speed:.4g}", self.required_speed),
+                reason=f": the strike the farthest target at bearing_max needs (with {self.named(*depends)}); raise "
                 "speed_max or ease those",
             )
 

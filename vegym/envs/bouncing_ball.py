@@ -10,7 +10,7 @@ from numba import njit
 
 from vegym import rng
 from vegym.envs.base import Info, KernelCall, State, Task, VegymEnv, VegymVectorEnv
-from vegym.params import Params, invalid, param
+from vegym.params import Params, param
 from vegym.physics import particle
 from vegym.physics.columns import pairwise_sum, scratch
 from vegym.physics.particle import STANDARD_GRAVITY, ParticleParams
@@ -44,13 +44,11 @@ class BouncingBallParams(Params):
 
     def validate(self) -> None:
         if not self.radius < self.target_min:
-            raise invalid("target_min", self.target_min, f"(radius={self.radius}, target_max={self.target_max}]")
+            raise self.between("target_min", "radius", "target_max", low_open=True)
         if not self.target_min <= self.target_max <= self.drop_height:
-            raise invalid(
-                "target_max", self.target_max, f"[target_min={self.target_min}, drop_height={self.drop_height}]"
-            )
+            raise self.between("target_max", "target_min", "drop_height")
         if self.target_ratio_min > self.target_ratio_max:
-            raise self.above("target_ratio_min", f"target_ratio_max={self.target_ratio_max}]")
+            raise self.between("target_ratio_min", high="target_ratio_max")
 
     @property
     def particle(self) -> ParticleParams:

@@ -10,7 +10,7 @@ from numba import njit
 
 from vegym import rng
 from vegym.envs.base import Info, KernelCall, State, Task, VegymEnv, VegymVectorEnv
-from vegym.params import Params, invalid, param
+from vegym.params import Params, param
 from vegym.physics import vmath, wheel
 from vegym.physics.columns import scratch
 
@@ -38,17 +38,15 @@ class GearTrainParams(Params):
 
     def validate(self) -> None:
         if self.gears_min > self.gears_max:
-            raise invalid("gears_min", self.gears_min, f"[2, gears_max={self.gears_max}]")
+            raise self.between("gears_min", high="gears_max")
         if self.radius_min > self.radius_max:
-            raise self.above("radius_min", f"radius_max={self.radius_max}]")
+            raise self.between("radius_min", high="radius_max")
         if self.target_interval < self.dt:
-            raise self.below("target_interval", f"[dt={self.dt}")
+            raise self.between("target_interval", "dt")
         if not self.ratio_max * self.max_speed * self.dt < np.pi:
-            raise self.above(
-                "max_speed",
-                f"pi / (dt * radius_max / radius_min) = pi / ({self.dt} * {self.radius_max} / {self.radius_min})"
-                f" = {np.pi / (self.dt * self.ratio_max):.4g})",
-            )
+            fastest = np.pi / (self.dt * self.ratio_max)
+            formula = f"pi / (dt * radius_max / radius_min) = pi / ({self.dt} * {self.radius_max} / {self.radius_min})"
+            raise self.between("max_speed", high=(f"{formula} = {fastest:.4g}", fastest), high_open=True)
 
     @property
     def ratio_max(self) -> float:

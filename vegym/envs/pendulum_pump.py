@@ -47,7 +47,7 @@ class PendulumPumpParams(ScheduledParams, Params):
 
     def validate(self) -> None:
         if self.target_min > self.target_max:
-            raise invalid("target_min", self.target_min, f"[0, target_max={self.target_max}]")
+            raise self.between("target_min", high="target_max")
         _ = self.schedule  # raises ValueError if change_interval_min or final_hold is out of range
         stable, resolved = self.physics.max_stable_step(), self.max_torque_step
         if self.step_length >= min(stable, resolved):
@@ -60,7 +60,8 @@ class PendulumPumpParams(ScheduledParams, Params):
                 strongest = 4.0 * self.physics.inertia / self.step_length**2
                 weaker = f"; or max_torque below {strongest:.4g} N m for this dt and substeps"
             if self.dt >= 1000 * longest:
-                raise self.above("dt", f"1000 substeps x {longest:.4g} s), the {what} of {why}{weaker}")
+                limit = (f"1000 substeps x {longest:.4g} s", 1000 * longest)
+                raise self.between("dt", high=limit, high_open=True, reason=f", the {what} of {why}{weaker}")
             fewest = math.floor(self.dt / longest) + 1
             allowed = f"[{fewest}, 1000] for dt={self.dt} ({what} {longest:.4g} s, for {why}){weaker}"
             raise invalid("substeps", self.substeps, allowed)

@@ -11,7 +11,7 @@ from numba import njit
 
 from vegym import rng
 from vegym.envs.base import Info, KernelCall, State, Task, VegymEnv, VegymVectorEnv
-from vegym.params import Params, invalid, param
+from vegym.params import Params, param
 from vegym.physics import projectile, vmath
 from vegym.physics.columns import scratch
 from vegym.physics.particle import STANDARD_GRAVITY
@@ -46,22 +46,22 @@ class ProjectileEnvParams(Params):
 
     def validate(self) -> None:
         if self.launch_height_min < self.radius:
-            raise invalid("launch_height_min", self.launch_height_min, f"[radius={self.radius}, launch_height_max]")
+            raise self.between("launch_height_min", "radius", "launch_height_max")
         if self.launch_height_max < self.launch_height_min:
-            raise self.below("launch_height_max", f"[launch_height_min={self.launch_height_min}")
+            raise self.between("launch_height_max", "launch_height_min")
         if self.target_distance_min > self.target_distance_max:
-            raise self.above("target_distance_min", f"target_distance_max={self.target_distance_max}]")
+            raise self.between("target_distance_min", high="target_distance_max")
         if self.speed_min > self.speed_max:
-            raise invalid("speed_min", self.speed_min, f"[0, speed_max={self.speed_max}]")
+            raise self.between("speed_min", high="speed_max")
         if self.wind_speed_max >= self.speed_max:
-            raise invalid("wind_speed_max", self.wind_speed_max, f"[0, speed_max={self.speed_max})")
+            raise self.between("wind_speed_max", high="speed_max", high_open=True)
         if self.target_distance_max > self.reachable_distance:
-            raise self.above(
+            raise self.between(
                 "target_distance_max",
-                f"reachable_distance={self.reachable_distance:.4g}], the range at speed_max - wind_speed_max = "
-                f"{self.speed_max} - {self.wind_speed_max} m/s from launch_height_min - radius = "
-                f"{self.launch_height_min} - {self.radius} m "
-                f"under gravity={self.gravity} m/s^2",
+                high=(f"reachable_distance = {self.reachable_distance:.4g}", self.reachable_distance),
+                reason=f", the range at speed_max - wind_speed_max = {self.speed_max} - {self.wind_speed_max} m/s from "
+                f"launch_height_min - radius = {self.launch_height_min} - {self.radius} m under gravity={self.gravity} "
+                "m/s^2",
             )
 
     @property

@@ -37,7 +37,7 @@ class ProjectileAdjustParams(ProjectileEnvParams):
 
     def validate(self) -> None:
         if self.wind_speed_max >= self.speed_max:  # before Projectile-v0's check, whose range includes 0
-            raise self.above("wind_speed_max", f"speed_max={self.speed_max})")
+            raise self.between("wind_speed_max", high="speed_max", high_open=True)
         super().validate()
 
     @property

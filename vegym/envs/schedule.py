@@ -19,7 +19,7 @@ import numpy as np
 from numba import njit
 
 from vegym import rng
-from vegym.params import invalid
+from vegym.params import empty_range, invalid
 
 NO_CHANGE = np.iinfo(np.int64).max
 """``next_change`` of an episode whose schedule has ended."""
@@ -103,7 +103,9 @@ class ChangeSchedule:
         Raises ``ValueError`` naming ``change_interval_min`` or ``final_hold`` when they do not fit.
         """
         if not dt <= interval_min <= interval_max:
-            raise invalid("change_interval_min", interval_min, f"[dt={dt}, change_interval_max={interval_max}]")
+            allowed = f"[dt={dt}, change_interval_max={interval_max}]"
+            empty = empty_range("dt", dt, "change_interval_max", interval_max)
+            raise invalid("change_interval_min", interval_min, allowed + empty)
         if final_hold > episode_steps * dt:
             raise invalid(
                 "final_hold", final_hold, f"[0, episode_steps * dt = {episode_steps} * {dt} = {episode_steps * dt:.6g}]"

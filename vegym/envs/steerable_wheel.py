@@ -11,7 +11,7 @@ from numba import njit
 
 from vegym import rng
 from vegym.envs.base import Info, KernelCall, State, Task, VegymEnv, VegymVectorEnv
-from vegym.params import Params, invalid, param
+from vegym.params import Params, param
 from vegym.physics import vmath, wheel
 from vegym.physics.columns import scratch
 from vegym.physics.wheel import WheelParams
@@ -67,10 +67,10 @@ class SteerableWheelParams(Params):
     exit_penalty: float = param(5.0, "cost of leaving the arena (ends the episode)", low=0.0)
 
     def validate(self) -> None:
-        if not self.waypoint_margin < 0.5 * self.arena_size:
-            raise invalid("waypoint_margin", self.waypoint_margin, f"[0, arena_size / 2 = {0.5 * self.arena_size:g})")
-        if not self.capture_radius < 0.5 * self.arena_size:
-            raise invalid("capture_radius", self.capture_radius, f"[0, arena_size / 2 = {0.5 * self.arena_size:g})")
+        half_arena = (f"arena_size / 2 = {self.half_size:g}", self.half_size)
+        for name in ("waypoint_margin", "capture_radius"):
+            if not getattr(self, name) < self.half_size:
+                raise self.between(name, high=half_arena, high_open=True)
 
     @property
     def wheel(self) -> WheelParams:

@@ -11,7 +11,7 @@ from numba import njit
 
 from vegym import rng
 from vegym.envs.base import Info, KernelCall, State, Task, VegymEnv, VegymVectorEnv
-from vegym.params import Params, invalid, param
+from vegym.params import Params, param
 from vegym.physics import suspension
 from vegym.physics.particle import STANDARD_GRAVITY
 from vegym.physics.suspension import SpringParams
@@ -58,20 +58,22 @@ class SuspensionParams(Params):
     def validate(self) -> None:
         if self.static_length <= 0.0:
             weight = f"mass * gravity = {self.mass:g} * {self.gravity:g} = {self.mass * self.gravity:g}"
-            raise self.below("modulus", f"({weight}", ": the spring bottoms out")
+            raise self.between(
+                "modulus", (weight, self.mass * self.gravity), low_open=True, reason=": the spring bottoms out"
+            )
         if self.damping_min > self.damping_max:
-            raise invalid("damping_min", self.damping_min, f"[0, damping_max={self.damping_max}]")
+            raise self.between("damping_min", high="damping_max")
         if self.slope_min > self.slope_max:
-            raise invalid("slope_min", self.slope_min, f"[0, slope_max={self.slope_max}]")
+            raise self.between("slope_min", high="slope_max")
         if self.wavelength_min > self.wavelength_max:
-            raise self.above("wavelength_min", f"wavelength_max={self.wavelength_max}]")
+            raise self.between("wavelength_min", high="wavelength_max")
         stable = self.spring.max_stable_step(self.damping_max)
         if self.dt >= stable:
-            allowed = (
-                f"{stable:.4g}): semi-implicit Euler is unstable beyond it, for damping_max={self.damping_max:g}, "
+            reason = (
+                f": semi-implicit Euler is unstable beyond it, for damping_max={self.damping_max:g}, "
                 f"mass={self.mass:g}, modulus={self.modulus:g} and natural_length={self.natural_length:g}"
             )
-            raise self.above("dt", allowed)
+            raise self.between("dt", high=(f"{stable:.4g}", stable), high_open=True, reason=reason)
 
     @property
     def spring(self) -> SpringParams:

@@ -56,16 +56,16 @@ class ThreadEnvParams(Params):
 
     def validate(self) -> None:
         if self.n_actuators > self.n_nodes:
-            raise invalid("n_actuators", self.n_actuators, f"[1, n_nodes={self.n_nodes}]")
+            raise self.between("n_actuators", high="n_nodes")
         if self.pluck_min > self.pluck_max:
-            raise self.above("pluck_min", f"pluck_max={self.pluck_max}]")
+            raise self.between("pluck_min", high="pluck_max")
         if thread.substeps(self.dt, self.physics) > MOST_SUBSTEPS:
             # substeps of at most half the stable step min(sqrt(m/S), m/c): that step at least 2 dt / MOST_SUBSTEPS
             m, rate = self.node_mass, 0.5 * MOST_SUBSTEPS / self.dt
             why = f"node_mass={m!r} and dt={self.dt!r}: at most {MOST_SUBSTEPS} stable substeps per step"
             if self.drag == 0.0 or math.sqrt(m / self.stiffness) < m / self.drag:  # the spring's bound binds
-                raise self.above("stiffness", f"{m * rate * rate:.6g}] for {why}")
-            raise invalid("drag", self.drag, f"[0, {m * rate:.6g}] for {why}")
+                raise self.between("stiffness", high=(f"{m * rate * rate:.6g}", m * rate * rate), reason=f" for {why}")
+            raise self.between("drag", high=(f"{m * rate:.6g}", m * rate), reason=f" for {why}")
         try:
             rest = thread.static_equilibrium(self.physics)
         except RuntimeError as error:  # too slack (natural_length=300), or too soft or too long for the solver

@@ -34,7 +34,7 @@ from typing import NamedTuple
 import numpy as np
 from numba import njit
 
-from vegym.params import Params, check_positive, invalid, param
+from vegym.params import Params, check_positive, param
 from vegym.physics import vmath
 from vegym.physics.columns import flat_columns
 
@@ -62,9 +62,9 @@ class AircraftParams(Params):
 
     def validate(self) -> None:
         if self.max_speed <= self.min_speed:
-            raise self.below("max_speed", f"(min_speed={self.min_speed}")
+            raise self.between("max_speed", "min_speed", low_open=True)
         if self.ceiling_altitude <= self.floor_altitude:
-            raise invalid("ceiling_altitude", self.ceiling_altitude, f"(floor_altitude={self.floor_altitude}, inf]")
+            raise self.between("ceiling_altitude", "floor_altitude", low_open=True)
 
     @property
     def command_low(self) -> np.ndarray:

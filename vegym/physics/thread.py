@@ -45,8 +45,9 @@ class ThreadParams(Params):
 
     def validate(self) -> None:
         if self.gravity == 0.0 and not self.natural_length < self.spacing:
-            allowed = f"span / (n_nodes + 1) = {self.spacing:g}) without gravity, where a slack thread has no rest"
-            raise self.above("natural_length", allowed)
+            reason = " without gravity, where a slack thread has no rest"
+            spacing = (f"span / (n_nodes + 1) = {self.spacing:g}", self.spacing)
+            raise self.between("natural_length", high=spacing, high_open=True, reason=reason)
 
     @property
     def spacing(self) -> float:
