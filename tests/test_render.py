@@ -70,6 +70,7 @@ def test_gear_teeth_keep_their_pitch_up_to_a_cap() -> None:
         ("vegym/Billiards-v0", {"target_radius": 1e5}),
         ("vegym/Suspension-v0", {"damping_min": 1000.0, "damping_max": 1000.0}),  # a fixed damper: no range
         ("vegym/Aircraft-v0", {"wind_x": 1e-300}),  # a wind whose np.linalg.norm underflows to 0
+        ("vegym/Suspension-v0", {"slope_max": 1e9}),  # a road of cliffs: filled, it took pygame minutes a frame
     ],
 )
 def test_huge_and_degenerate_scenes_draw_their_frames(env_id: str, params: dict) -> None:
@@ -593,6 +594,51 @@ def test_long_episodes_draw_a_bounded_history(monkeypatch: pytest.MonkeyPatch) -
     t = np.linspace(0.0, 1.0, 100_000)
     panel.polyline(np.stack([t, t * t], axis=-1), canvas.BLUE)
     assert drawn == [4 * (40 + 30)]
+
+
+def test_a_polygon_far_beyond_its_panel_is_cut_to_a_margin_and_fills_the_pixels_of_the_whole(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """pygame fills every pixel row between a polygon's lowest and highest vertex, clipped or not: Suspension's
+    road of slope 1e6 took minutes a frame. The cut polygon that pygame gets, filled or outlined, lies within
+    CLIP_MARGIN of the panel, and a filled one draws the pixels that the whole one draws (one reaching 4,000 px out,
+    which pygame still fills quickly), but on its edges, where the cut's new vertices, rounded to pixels, may move
+    a pixel over."""
+    rng = np.random.default_rng(1)
+    polygons = [rng.uniform(-100.0, 150.0, (12, 2)) for _ in range(20)]
+    polygons += [np.array([[-5.0, -5.0], [5.0, 4000.0], [60.0, 20.0], [30.0, -900.0]])]
+    drawn: list[list[list[int]]] = []
+    draw = pygame.draw.polygon
+
+    def recording(surface: Any, color: Any, points: list[list[int]], width: int = 0) -> Any:
+        drawn.append(points)
+        return draw(surface, color, points, width)
+
+    def panel() -> canvas.Panel:
+        return canvas.Panel(canvas.new_surface(70, 50), (10, 10, 50, 30), (0.0, 40.0, 0.0, 20.0))
+
+    filled = 0
+    for points in polygons:
+        whole = panel()
+        draw(whole.surface, canvas.RED, whole.pixels(points))  # unclipped, then the panel's rectangle alone
+        expected = canvas.to_array(whole.surface)
+        outside = np.ones(expected.shape[:2], bool)
+        outside[10:40, 10:60] = False  # the rectangle (10, 10, 50, 30): 50 px wide, 30 tall
+        expected[outside] = canvas.WHITE
+        cut, outline = panel(), panel()
+        with monkeypatch.context() as patch:
+            patch.setattr(pygame.draw, "polygon", recording)
+            cut.polygon(points, canvas.RED)
+            outline.polygon(points, canvas.RED, 3)
+        red = (expected == canvas.RED).all(axis=2)
+        windows = np.lib.stride_tricks.sliding_window_view(np.pad(red, 1, mode="edge"), (3, 3))
+        on_edge = windows.any(axis=(2, 3)) & ~windows.all(axis=(2, 3))
+        differs = (canvas.to_array(cut.surface) != expected).any(axis=2)
+        assert not (differs & ~on_edge).any()
+        filled += red.sum() > 100
+    margin = canvas.CLIP_MARGIN
+    assert filled > 15 and len(drawn) > 30
+    assert all(-margin <= x - 10 <= 50 + margin and -margin <= y - 10 <= 30 + margin for p in drawn for x, y in p)
 
 
 def test_a_panel_maps_many_points_to_the_pixels_it_maps_each_to() -> None:
