@@ -919,6 +919,7 @@ def test_a_renderer_keeps_the_latest_steps_of_an_episode_without_a_time_limit(
         assert 1 <= len(changes) <= 2 and all(49_999.6 <= x <= 50_010.0 for x, _ in changes), changes
 
 
+@pytest.mark.filterwarnings("ignore:.*step\\(\\) after the episode terminated")  # stepped past it on purpose
 def test_projectile_adjust_keeps_the_latest_shots_of_steps_past_the_end_and_counts_them_all(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:

@@ -99,15 +99,17 @@ class Task(abc.ABC, Generic[P]):
             return False
         return self.planned_steps != next(f.default for f in dataclasses.fields(self.params) if f.name == name)
 
-    def warn_unplanned_length(self, what: str) -> None:
-        """Warn that episodes run past the planned length (``what`` says how): they outlive the task's demand
-        schedule or its charge for the steps left, and only its parameter changes the plan. A shorter time limit is
-        not warned of here: it cuts episodes, as truncation does (before the schedule's final hold, with charges that
-        still count the planned steps); the vector env warns of one that cuts a plan changed alone."""
+    def warn_unplanned_length(self, what: str, hint: str = "") -> None:
+        """Warn that episodes run past the planned length (``what`` says how, ``hint`` what else may have made
+        them): they outlive the task's demand schedule or its charge for the steps left, and only its parameter
+        changes the plan. A shorter time limit is not warned of here: it cuts episodes, as truncation does (before
+        the schedule's final hold, with charges that still count the planned steps); the vector env warns of one
+        that cuts a plan changed alone."""
         name = self.planned_length_param
         gym.logger.warn(
             f"{what}, but the task plans episodes of {name}={self.planned_steps} steps (its demand schedule or its "
-            f"charge for the steps left); to change the episode length pass both {name}=N and max_episode_steps=N"
+            f"charge for the steps left){hint}; to change the episode length pass both {name}=N and "
+            "max_episode_steps=N"
         )
 
     @property
@@ -564,6 +566,8 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
         self._load_action = single_action_loader(self._action_loader)
         planned = self.task.planned_steps
         self._warn_past = sys.maxsize if planned is None else planned  # the step count that warns; then never again
+        self._terminated = False
+        """Whether the episode has terminated: a step then warns (once per episode) that reset() is due."""
         self._out = self.task.outputs(1)
         self._renderer: Any = None
         self._window: Any = None
@@ -584,9 +588,10 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
         self.state = self._bound_state = state
 
     def _adopt(self, state: State) -> None:
-        """Bind ``state``, a dict put in place of ``self.state`` (a snapshot put back, say), and start the
-        renderer's record (its trail, the shots it shows) again from it."""
+        """Bind ``state``, a dict put in place of ``self.state`` (a snapshot put back, say, to step on from), and
+        start the renderer's record (its trail, the shots it shows) again from it."""
         self._bind(state)
+        self._terminated = False
         if self.render_mode is not None:
             self._get_renderer().reset(self._snapshot())
 
@@ -599,6 +604,7 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
         state = self.state
         if state is not None and state is not self._bound_state:
             self._bind(state)
+        self._terminated = False
         if seeded is None and state is not None:
             # the next episode of the sequence, which one-step episodes (Projectile's, Billiards's) start after every
             # step: kept short, without gymnasium's Env.reset, which does nothing without a seed
@@ -622,26 +628,39 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
         return self._read_obs(), {}
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, Info]:
+        """One step. After a step that returned ``terminated`` (or ``truncated``, the time limit's) call ``reset()``:
+        a step after a termination warns, once an episode, and goes on from the final state (Projectile fires
+        again) in an episode the task never starts; one past the planned length warns once."""
         state = self.state
         if state is None or state is not self._bound_state:
             if state is None:
                 raise gym.error.ResetNeeded("Call reset() before step().")
             self._adopt(state)
         self._load_action(action)
+        if self._terminated:
+            gym.logger.warn(
+                f"{type(self).__name__}: step() after the episode terminated; call reset() first (this step goes on "
+                "from its final state, in an episode that the task never starts)"
+            )
+            self._terminated = False
         if self._run_step():
             self.task.after_step(state, self._out)
         steps = self._steps
         count = steps[0] + 1
         steps[0] = count
         if count > self._warn_past:
-            self.task.warn_unplanned_length(f"{type(self).__name__}: an episode has run {count} steps")
+            self.task.warn_unplanned_length(
+                f"{type(self).__name__}: an episode has run {count} steps", "; where the time limit truncated it, call "
+                "reset() first",
+            )  # fmt: skip
             self._warn_past = sys.maxsize
         info = self._read_info()
         if self.render_mode is not None:
             self._get_renderer().record(self._snapshot(), info)
             if self.render_mode == "human":
                 self.render()
-        return self._read_obs(), self._read_reward(), self._read_terminated(), False, info
+        terminated = self._terminated = self._read_terminated()
+        return self._read_obs(), self._read_reward(), terminated, False, info
 
     def _snapshot(self) -> State:
         """A copy of the state for the renderer to keep (the env updates its own in place)."""
