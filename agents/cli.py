@@ -276,6 +276,8 @@ def cmd_compare(args: argparse.Namespace) -> int:
     retraining = [f"--{name}" for name in ("seeds", "jobs", "timesteps") if getattr(args, name) is not None]
     if retraining and not args.retrain:
         raise ValueError(f"{', '.join(retraining)} set how --retrain trains; without --retrain nothing is trained")
+    if not args.retrain and not Path(args.models).is_dir():
+        raise ValueError(f"--models {args.models}: no such directory (--retrain trains agents into a new one)")
     import torch
 
     from agents.compare import TABLE_COLUMNS, compare, table_rows
@@ -466,9 +468,17 @@ def build_parser() -> argparse.ArgumentParser:
         help="learned agents' directory (default: the shipped agents/pretrained)",
     )
     p.add_argument(
-        "--algos", nargs="+", choices=ALGO_NAMES, default=list(ALGO_NAMES), help="learned algorithms to include"
+        "--algos",
+        nargs="+",
+        choices=ALGO_NAMES,
+        help="learned algorithms to include (default: every one; with --retrain, those of the shipped agents)",
     )
-    p.add_argument("--retrain", action="store_true", help="retrain the learned agents from the committed configs first")
+    p.add_argument(
+        "--retrain",
+        action="store_true",
+        help="retrain the learned agents from the committed configs first: for each env those of --algos, by default "
+        "the algorithms shipped for it in agents/pretrained (PPO; also SAC for Billiards)",
+    )
     p.add_argument("--seeds", type=_seed_list, help="with --retrain: training seeds (default 0,1,2)")
     p.add_argument("--jobs", type=_positive, help="with --retrain: seeds trained at once (default 2)")
     p.add_argument("--timesteps", type=_positive, help="with --retrain: override every config's n_timesteps")

@@ -286,7 +286,7 @@ def compare(
     episodes: int = 20,
     seed: int = EVAL_SEED,
     models_dir: Path = PRETRAINED_DIR,
-    algos: Sequence[str] = tuple(ALGOS),
+    algos: Sequence[str] | None = None,
     retrain_agents: bool = False,
     seeds: Sequence[int] = DEFAULT_SEEDS,
     jobs: int = 2,
@@ -295,7 +295,10 @@ def compare(
     log: Callable[[str], None] = print,
 ) -> tuple[list[dict[str, Any]], list[str]]:
     """Evaluate and draw every env of ``env_ids``; write the files into ``out``, rewritten after each env (a later
-    env's failure keeps the earlier ones' results); return the records and notes."""
+    env's failure keeps the earlier ones' results); return the records and notes. The learned agents are those of
+    ``algos`` under ``models_dir`` (None: of every algorithm); with ``retrain_agents`` those of ``algos`` are
+    trained first, or for None those of the algorithms shipped for the env (``agents/pretrained``: the agents
+    that the README's tables show)."""
     from agents.plots import save_episode_gif, save_score_chart, save_trajectory_plot  # matplotlib: only to draw
 
     out = Path(out)
@@ -303,14 +306,16 @@ def compare(
     records: list[dict[str, Any]] = []
     notes: list[str] = []
     images = ["normalized_scores.png"]
+    learned = tuple(ALGOS) if algos is None else algos
     for env_id in env_ids:
         name = env_name(env_id)
         if retrain_agents:
-            log(f"{name}: retraining {', '.join(configured_algos(env_id, algos)) or 'nothing (no config entry)'}")
-            retrain(env_id, models_dir, algos, seeds, jobs, timesteps, progress_bar, log)
-        runs = find_models(models_dir, env_id, algos)
+            trained = list(find_models(PRETRAINED_DIR, env_id, tuple(ALGOS))) if algos is None else algos
+            log(f"{name}: retraining {', '.join(configured_algos(env_id, trained)) or 'nothing (no config entry)'}")
+            retrain(env_id, models_dir, trained, seeds, jobs, timesteps, progress_bar, log)
+        runs = find_models(models_dir, env_id, learned)
         if not runs:
-            notes.append(f"{name}: {_missing_note(env_id, models_dir, algos)}")
+            notes.append(f"{name}: {_missing_note(env_id, models_dir, learned)}")
             log(notes[-1])
         factories, env_kwargs = _learned(runs, env_id)
         for line in (line for path in runs.values() for line in short_runs(path)):

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import os
 import random
 import warnings
 from collections.abc import Callable, Iterator, Mapping
@@ -432,8 +433,12 @@ def agent_factory(
     if spec in references:
         return spec, references[spec], None
     if not Path(spec).exists():
-        choices = ", ".join([*BASELINES, *references, "PATH"])
-        raise ValueError(f"agent {spec!r} is neither a model path nor one of {choices}")
+        names = ", ".join([*BASELINES, *references])
+        if "/" in spec or os.sep in spec or spec.endswith(".zip"):
+            raise ValueError(f"agent {spec!r}: no such model file or directory (or an agent of {env_id}: {names})")
+        elsewhere = [other for other, agents in REFERENCE_AGENTS.items() if spec in agents]
+        hint = f" ({spec} is a reference agent of {', '.join(elsewhere)})" if elsewhere else ""
+        raise ValueError(f"agent {spec!r} is no agent of {env_id} ({names}) nor a model path{hint}")
     path = Path(spec)
     factory: SeededFactories
     if path.is_dir():

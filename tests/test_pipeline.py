@@ -968,6 +968,35 @@ def test_compare_refuses_retraining_settings_without_retrain(
     assert f"{given[0]} set how --retrain trains" in capsys.readouterr().out and not out.exists()
 
 
+def test_compare_retrain_trains_the_algorithms_of_the_shipped_agents_unless_told_others(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """It trained every algorithm with a config entry (SAC for six envs, TD3 for two), where the README's tables
+    show PPO and Billiards' SAC (a helper's new-user trial)."""
+    calls = []
+
+    class Stopped(Exception):
+        pass
+
+    def retrain(env_id: str, models_dir: Path, algos: list[str], *args: object) -> None:
+        calls.append((env_id, list(algos)))
+        raise Stopped
+
+    monkeypatch.setattr(compare, "retrain", retrain)
+    for env_id, algos in [
+        ("vegym/Billiards-v0", None),
+        ("vegym/Projectile-v0", None),
+        ("vegym/Projectile-v0", ["sac"]),
+    ]:
+        with pytest.raises(Stopped):
+            compare.compare([env_id], tmp_path, models_dir=tmp_path, algos=algos, retrain_agents=True, log=print)
+    assert calls == [
+        ("vegym/Billiards-v0", ["ppo", "sac"]),
+        ("vegym/Projectile-v0", ["ppo"]),
+        ("vegym/Projectile-v0", ["sac"]),
+    ]
+
+
 def test_compare_retrains_on_a_tiny_budget_and_writes_every_file(tmp_path: Path) -> None:
     out, models = tmp_path / "out", tmp_path / "models"
     args = ["compare", "--envs", "BouncingBall-v0", "Projectile-v0", "--episodes", "2", "--out", str(out)]
@@ -1265,7 +1294,12 @@ def test_bad_input_is_a_clear_error(tmp_path: Path, capsys: pytest.CaptureFixtur
     assert main(["evaluate", "--env", "Nope-v0"]) == 2
     assert "unknown env 'Nope-v0'" in capsys.readouterr().out
     assert main(["evaluate", "--env", "Projectile-v0", "--agent", "oracle"]) == 2
-    assert "agent 'oracle' is neither a model path nor one of analytic, random, PATH" in capsys.readouterr().out
+    said = "agent 'oracle' is no agent of vegym/Projectile-v0 (analytic, random) nor a model path (oracle is a "
+    assert said + "reference agent of vegym/BouncingBall-v0)" in capsys.readouterr().out
+    assert main(["evaluate", "--env", "Projectile-v0", "--agent", str(tmp_path / "nothere")]) == 2
+    assert f"agent {str(tmp_path / 'nothere')!r}: no such model file or directory" in capsys.readouterr().out
+    assert main(["compare", "--envs", "Projectile-v0", "--models", str(tmp_path / "nothere")]) == 2
+    assert f"--models {tmp_path / 'nothere'}: no such directory" in capsys.readouterr().out
     assert main(["train", "--env", "Projectile-v0", "--algo", "ppo", "--out", str(tmp_path), "--resume"]) == 2
     assert "holds no training run to resume" in capsys.readouterr().out
     missing = str(tmp_path / "no_such_dir" / "x.json")  # refused before the evaluation, not after it
