@@ -13,10 +13,12 @@ from __future__ import annotations
 
 import ast
 import dataclasses
+import difflib
 import inspect
 import math
 import types
 import typing
+import warnings
 from collections.abc import Callable, Hashable, Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -442,6 +444,14 @@ def _check(c: TrainConfig, where: str) -> None:
             _check_range(key, value, value, f"{where}: normalize")
     _check_batches(c, where)
     _check_late_settings(c, where)
+    default = inspect.signature(c.algo_class.__init__).parameters.get("learning_starts")
+    learning_starts = c.hyperparams.get("learning_starts", default.default if default else None)
+    if isinstance(learning_starts, int) and learning_starts >= c.n_timesteps:
+        warnings.warn(
+            f"{where}: learning_starts={learning_starts} is not below n_timesteps={c.n_timesteps}: the run only "
+            "collects random steps and never updates its policy",
+            stacklevel=2,
+        )
     policy_hints = constructor_hints(c.algo_class.policy_aliases[c.policy])
     for key, value in c.policy_kwargs.items():
         if key not in policy_hints or key in ("self", "observation_space", "action_space", "lr_schedule"):
@@ -650,6 +660,14 @@ def load_config(
             f"{path}: no entry for {env_id}; entries: {entries}. Add one, here or in a file of your own "
             "(vegym train --config FILE)"
         )
+    for key in data:
+        if isinstance(key, str) and key.startswith("vegym/") and key not in vegym.ENVS:
+            close = difflib.get_close_matches(key, list(vegym.ENVS), n=1)
+            warnings.warn(
+                f"{path}: its entry {key!r} is no registered env{f' (did you mean {close[0]!r}?)' if close else ''}; "
+                "nothing trains it",
+                stacklevel=2,
+            )
     entry = data[env_id]
     if isinstance(entry, Mapping):  # else config_from_entry refuses it
         entry = {**entry, **(overrides or {})}

@@ -131,6 +131,7 @@ def run_two_workers(storage: str, study: str, tmp_path: Path) -> None:
     assert config.n_timesteps == 300
 
 
+@pytest.mark.filterwarnings("ignore:.*learning_starts=.* is not below n_timesteps")  # tiny totals on purpose
 def test_two_workers_on_sqlite_record_every_trial_once(tmp_path: Path) -> None:
     run_two_workers(f"sqlite:///{tmp_path / 'study.db'}", "two-workers", tmp_path)
 
