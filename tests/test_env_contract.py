@@ -151,7 +151,10 @@ def test_a_step_after_a_termination_warns_that_reset_is_due_and_a_state_put_back
         env.reset()
         snapshot = copy.deepcopy(env.unwrapped.state)
         assert env.step(action)[2]
-        env.unwrapped.state = snapshot  # a state to step on from
+        env.unwrapped.state = copy.deepcopy(snapshot)  # a state to step on from
+        assert env.step(action)[2]
+        for name, value in snapshot.items():  # put back in place, as the env's docstring allows
+            env.unwrapped.state[name][...] = value
         env.step(action)
 
 
@@ -519,7 +522,7 @@ def test_vector_seeds_span_uint64_and_none_leaves_a_sub_env_unseeded() -> None:
         again, _ = vec.reset(seed=[5, None, 7], options=options)
         np.testing.assert_array_equal(again[1], single.reset()[0])
         single.reset(seed=2**63 + 1)
-    for bad in (2**64 - 2, [1, 2, 2**64], [1, -1, 2], [1.5, 2, 3]):
+    for bad in (2**64 - 2, [1, 2, 2**64], [1, -1, 2], [1.5, 2, 3], [True, 1, 2]):
         with pytest.raises(ValueError, match="seed"):
             vec.reset(seed=bad)
     np.testing.assert_array_equal(vec.reset(seed=np.int64(6))[0], vec.reset(seed=6)[0])  # numpy integers too
@@ -528,6 +531,21 @@ def test_vector_seeds_span_uint64_and_none_leaves_a_sub_env_unseeded() -> None:
     for bad in ("5", 5.0, True):
         with pytest.raises(TypeError, match="expected an int or a list"):
             vec.reset(seed=bad)
+
+
+def test_a_single_env_takes_numpy_integer_seeds_as_the_vector_env_does_and_refuses_other_types() -> None:
+    """A seed from a numpy array (sub-env i's seed + i) raised gymnasium.error.Error in the single env, which the
+    vector env takes; a bool was taken as 1, which the vector env refuses (a helper's review)."""
+    single, vec = (
+        gym.make("vegym/Aircraft-v0"),
+        gym.make_vec("vegym/Aircraft-v0", num_envs=2, vectorization_mode="vector_entry_point"),
+    )
+    seeds = np.arange(3, 5, dtype=np.int64)
+    np.testing.assert_array_equal(single.reset(seed=seeds[1])[0], vec.reset(seed=seeds[0])[0][1])
+    assert single.unwrapped.np_random_seed == 4
+    for bad in ("5", 5.0, True, np.bool_(True)):
+        with pytest.raises(TypeError, match="expected an int"):
+            single.reset(seed=bad)
 
 
 def test_a_seed_outside_uint64_raises_before_the_env_changes() -> None:

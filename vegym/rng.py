@@ -55,10 +55,10 @@ def _mix(z: np.ndarray) -> np.ndarray:
 
 
 def seed_keys(seeds: np.ndarray | Sequence[int] | int) -> np.ndarray:
-    """Episode keys from integer seeds in [0, 2**64) (any shape); ValueError for any other seed."""
+    """Episode keys from integer seeds in [0, 2**64) (any shape); ValueError for any other seed (a bool too)."""
     s = seeds if isinstance(seeds, np.ndarray) else np.array(seeds, dtype=object)  # numpy would guess a dtype
     if s.dtype == object:  # Python ints, checked one by one
-        if not all(isinstance(x, (int, np.integer)) and 0 <= x < 2**64 for x in s.flat):
+        if not all(isinstance(x, int | np.integer) and not isinstance(x, bool) and 0 <= x < 2**64 for x in s.flat):
             raise ValueError(f"seeds must be integers in [0, 2**64); got {seeds!r}")
         s = s.astype(np.uint64)
     elif s.dtype.kind not in "iu" or (s.dtype.kind == "i" and s.size and s.min() < 0):

@@ -566,8 +566,9 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
         self._load_action = single_action_loader(self._action_loader)
         planned = self.task.planned_steps
         self._warn_past = sys.maxsize if planned is None else planned  # the step count that warns; then never again
-        self._terminated = False
-        """Whether the episode has terminated: a step then warns (once per episode) that reset() is due."""
+        self._terminated_at = -1
+        """The step count at which the episode terminated (-1: none): a step from that count warns that reset() is
+        due (a reset, or a state put back from another count, in place or as a new dict, needs no warning)."""
         self._out = self.task.outputs(1)
         self._renderer: Any = None
         self._window: Any = None
@@ -591,7 +592,6 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
         """Bind ``state``, a dict put in place of ``self.state`` (a snapshot put back, say, to step on from), and
         start the renderer's record (its trail, the shots it shows) again from it."""
         self._bind(state)
-        self._terminated = False
         if self.render_mode is not None:
             self._get_renderer().reset(self._snapshot())
 
@@ -600,18 +600,19 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
         from ``np_random``). There are no reset options; any key in ``options`` raises ``ValueError``."""
         if options:
             check_reset_options(options, ())
+        if seed is not None and not _is_integer(seed):
+            raise TypeError(f"seed={seed!r}: expected an int (numpy's too) or None")
         seeded = rng.seed_keys([seed]) if seed is not None else None  # a bad seed raises before anything changes
         state = self.state
         if state is not None and state is not self._bound_state:
             self._bind(state)
-        self._terminated = False
         if seeded is None and state is not None:
             # the next episode of the sequence, which one-step episodes (Projectile's, Billiards's) start after every
             # step: kept short, without gymnasium's Env.reset, which does nothing without a seed
             self._steps[0] = 0
             self._restart()
         else:
-            super().reset(seed=seed)
+            super().reset(seed=None if seed is None else int(seed))  # gymnasium's takes Python ints only
             if state is None:
                 key = seeded if seeded is not None else self.np_random.integers(0, 2**64, 1, np.uint64)
                 self._bind(owned({**self.task.initial_state(key), "key": key, "step": np.zeros(1, dtype=np.int64)}))
@@ -629,20 +630,19 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
 
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, Info]:
         """One step. After a step that returned ``terminated`` (or ``truncated``, the time limit's) call ``reset()``:
-        a step after a termination warns, once an episode, and goes on from the final state (Projectile fires
-        again) in an episode the task never starts; one past the planned length warns once."""
+        a step from a terminal state warns and goes on from it (Projectile fires again) in an episode that the task
+        never starts; one past the planned length warns once."""
         state = self.state
         if state is None or state is not self._bound_state:
             if state is None:
                 raise gym.error.ResetNeeded("Call reset() before step().")
             self._adopt(state)
         self._load_action(action)
-        if self._terminated:
+        if self._steps[0] == self._terminated_at:
             gym.logger.warn(
                 f"{type(self).__name__}: step() after the episode terminated; call reset() first (this step goes on "
                 "from its final state, in an episode that the task never starts)"
             )
-            self._terminated = False
         if self._run_step():
             self.task.after_step(state, self._out)
         steps = self._steps
@@ -659,7 +659,8 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
             self._get_renderer().record(self._snapshot(), info)
             if self.render_mode == "human":
                 self.render()
-        terminated = self._terminated = self._read_terminated()
+        terminated = self._read_terminated()
+        self._terminated_at = count if terminated else -1
         return self._read_obs(), self._read_reward(), terminated, False, info
 
     def _snapshot(self) -> State:
