@@ -446,10 +446,12 @@ def _check(c: TrainConfig, where: str) -> None:
     _check_late_settings(c, where)
     default = inspect.signature(c.algo_class.__init__).parameters.get("learning_starts")
     learning_starts = c.hyperparams.get("learning_starts", default.default if default else None)
-    if isinstance(learning_starts, int) and learning_starts >= c.n_timesteps:
+    trained = c.trained_steps(c.n_timesteps)  # SB3 updates once it has collected more than learning_starts steps
+    if isinstance(learning_starts, int) and learning_starts >= trained:
+        total = f"n_timesteps={c.n_timesteps}" + (f" (trained as {trained})" if trained != c.n_timesteps else "")
         warnings.warn(
-            f"{where}: learning_starts={learning_starts} is not below n_timesteps={c.n_timesteps}: the run only "
-            "collects random steps and never updates its policy",
+            f"{where}: learning_starts={learning_starts} is not below {total}: the run only collects random steps "
+            "and never updates its policy",
             stacklevel=2,
         )
     policy_hints = constructor_hints(c.algo_class.policy_aliases[c.policy])

@@ -533,6 +533,16 @@ def test_vector_seeds_span_uint64_and_none_leaves_a_sub_env_unseeded() -> None:
             vec.reset(seed=bad)
 
 
+def test_a_single_env_pickled_before_the_terminal_step_warning_still_steps() -> None:
+    env = gym.make("vegym/Projectile-v0").unwrapped
+    env.reset(seed=0)
+    old = env.__getstate__()
+    del old["_terminated_at"]  # as pickled before 4547fcb
+    clone = type(env).__new__(type(env))
+    clone.__setstate__(old)
+    assert clone.step(np.zeros(3, np.float32))[2]
+
+
 def test_a_single_env_takes_numpy_integer_seeds_as_the_vector_env_does_and_refuses_other_types() -> None:
     """A seed from a numpy array (sub-env i's seed + i) raised gymnasium.error.Error in the single env, which the
     vector env takes; a bool was taken as 1, which the vector env refuses (a helper's review)."""

@@ -350,6 +350,8 @@ def test_a_config_warns_of_a_misspelt_env_entry_and_of_a_run_too_short_to_learn(
         warnings.simplefilter("error")
         load_config(write_config(tmp_path, short + "  learning_starts: 100\n"), "vegym/Projectile-v0", "sac")
         load_config(write_config(tmp_path, short), "vegym/Projectile-v0", "ppo")
+        rounded = "vegym/Projectile-v0:\n  n_timesteps: 99\n  n_envs: 4\n  learning_starts: 99\n"
+        assert load_config(write_config(tmp_path, rounded), "vegym/Projectile-v0", "td3").trained_steps(99) == 100
 
 
 def test_config_file_errors(tmp_path: Path) -> None:
@@ -1009,10 +1011,14 @@ def test_compare_retrain_trains_the_algorithms_of_the_shipped_agents_unless_told
     ]:
         with pytest.raises(Stopped):
             compare.compare([env_id], tmp_path, models_dir=tmp_path, algos=algos, retrain_agents=True, log=print)
+    monkeypatch.setattr(compare, "PRETRAINED_DIR", tmp_path / "none_shipped")  # a new env: its configured ones
+    with pytest.raises(Stopped):
+        compare.compare(["vegym/Projectile-v0"], tmp_path, models_dir=tmp_path, retrain_agents=True, log=print)
     assert calls == [
         ("vegym/Billiards-v0", ["ppo", "sac"]),
         ("vegym/Projectile-v0", ["ppo"]),
         ("vegym/Projectile-v0", ["sac"]),
+        ("vegym/Projectile-v0", ["ppo", "sac", "td3"]),
     ]
 
 

@@ -641,6 +641,22 @@ def test_a_polygon_far_beyond_its_panel_is_cut_to_a_margin_and_fills_the_pixels_
     assert all(-margin <= x - 10 <= 50 + margin and -margin <= y - 10 <= 30 + margin for p in drawn for x, y in p)
 
 
+def test_a_polygon_cut_to_a_box_keeps_the_part_inside_it() -> None:
+    box = (0.0, 0.0, 10.0, 10.0)
+
+    def area(points: np.ndarray) -> float:
+        x, y = points.T
+        return 0.5 * abs(np.dot(x, np.roll(y, 1)) - np.dot(y, np.roll(x, 1)))
+
+    inside = np.array([[1.0, 1.0], [9.0, 2.0], [5.0, 8.0]])
+    np.testing.assert_array_equal(canvas.clip_polygon(inside, box), inside)
+    assert canvas.clip_polygon(np.array([[20.0, 0.0], [30.0, 0.0], [25.0, 5.0]]), box).shape == (0, 2)
+    around = canvas.clip_polygon(np.array([[-1e9, -1e9], [1e9, -1e9], [1e9, 1e9], [-1e9, 1e9]]), box)
+    assert area(around) == 100.0 and np.abs(around).max() <= 10.0
+    half = canvas.clip_polygon(np.array([[5.0, -5.0], [15.0, -5.0], [15.0, 15.0], [5.0, 15.0]]), box)
+    assert area(half) == 50.0 and half[:, 0].min() == 5.0 and half[:, 0].max() == 10.0
+
+
 def test_a_panel_maps_many_points_to_the_pixels_it_maps_each_to() -> None:
     panel = canvas.Panel(canvas.new_surface(100, 80), (5, 5, 90, 70), (-3.3, 7.1, -2.2, 5.5))
     points = np.random.default_rng(0).uniform(-5.0, 9.0, (1000, 2))

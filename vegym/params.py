@@ -179,6 +179,8 @@ class Params:
         ends = []
         for bound, is_open, side in ((low, low_open, "low"), (high, high_open, "high")):
             if bound is None:
+                if is_open:
+                    raise TypeError(f"{side}_open applies to a {side} bound given; the field's own end has its own")
                 bound, is_open = meta[side], meta[f"{side}_open"]
             if isinstance(bound, str):
                 ends.append((f"{bound}={getattr(self, bound)!r}", bound, getattr(self, bound), is_open))

@@ -100,8 +100,8 @@ class Task(abc.ABC, Generic[P]):
         return self.planned_steps != next(f.default for f in dataclasses.fields(self.params) if f.name == name)
 
     def warn_unplanned_length(self, what: str, hint: str = "") -> None:
-        """Warn that episodes run past the planned length (``what`` says how, ``hint`` what else may have made
-        them): they outlive the task's demand schedule or its charge for the steps left, and only its parameter
+        """Warn that episodes run past the planned length (``what`` says how; ``hint``, advice appended): they
+        outlive the task's demand schedule or its charge for the steps left, and only its parameter
         changes the plan. A shorter time limit is not warned of here: it cuts episodes, as truncation does (before
         the schedule's final hold, with charges that still count the planned steps); the vector env warns of one
         that cuts a plan changed alone."""
@@ -631,7 +631,8 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
     def step(self, action: np.ndarray) -> tuple[np.ndarray, float, bool, bool, Info]:
         """One step. After a step that returned ``terminated`` (or ``truncated``, the time limit's) call ``reset()``:
         a step from a terminal state warns and goes on from it (Projectile fires again) in an episode that the task
-        never starts; one past the planned length warns once."""
+        never starts; one past the planned length warns once. (The env tells a terminal state by its step count, so
+        a state put back at the count of the step that terminated warns too.)"""
         state = self.state
         if state is None or state is not self._bound_state:
             if state is None:
@@ -709,6 +710,7 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
+        self.__dict__.setdefault("_terminated_at", -1)  # a pickle from before it
         self._load_action = single_action_loader(self._action_loader)
         self._bound_state = None
         if self.state is not None:
