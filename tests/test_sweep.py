@@ -113,6 +113,10 @@ def assert_complete_study(storage: str, study: str, trials: int) -> None:
         assert t.value is not None and "config" in t.user_attrs
 
 
+TINY_TOTALS = pytest.mark.filterwarnings("ignore:.*learning_starts=.* is not below n_timesteps")
+"""For runs of tiny totals on purpose: an off-policy one then never updates its policy, which its config warns of."""
+
+
 def run_two_workers(storage: str, study: str, tmp_path: Path) -> None:
     best = tmp_path / "best.yml"
     proc = subprocess.run(
@@ -131,12 +135,13 @@ def run_two_workers(storage: str, study: str, tmp_path: Path) -> None:
     assert config.n_timesteps == 300
 
 
-@pytest.mark.filterwarnings("ignore:.*learning_starts=.* is not below n_timesteps")  # tiny totals on purpose
+@TINY_TOTALS
 def test_two_workers_on_sqlite_record_every_trial_once(tmp_path: Path) -> None:
     run_two_workers(f"sqlite:///{tmp_path / 'study.db'}", "two-workers", tmp_path)
 
 
 @pytest.mark.skipif(POSTGRES_URL is None, reason="set VEGYM_TEST_POSTGRES_URL (.ci/run does) to test PostgreSQL")
+@TINY_TOTALS
 def test_two_workers_on_postgresql_record_every_trial_once(tmp_path: Path) -> None:
     run_two_workers(POSTGRES_URL, f"two-workers-{uuid.uuid4().hex[:8]}", tmp_path)
 
