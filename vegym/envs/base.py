@@ -650,10 +650,8 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
         count = steps[0] + 1
         steps[0] = count
         if count > self._warn_past:
-            self.task.warn_unplanned_length(
-                f"{type(self).__name__}: an episode has run {count} steps", "; where the time limit truncated it, call "
-                "reset() first",
-            )  # fmt: skip
+            hint = "; where the time limit truncated it, call reset() first"
+            self.task.warn_unplanned_length(f"{type(self).__name__}: an episode has run {count} steps", hint)
             self._warn_past = sys.maxsize
         info = self._read_info()
         if self.render_mode is not None:

@@ -204,15 +204,9 @@ class Panel:
         beyond the panel is first cut to the panel and a margin of ``CLIP_MARGIN`` pixels (pygame fills every row
         between its lowest and highest vertex: a road of slope 1e4 took 4 s a frame, of 1e6 minutes)."""
         pixels = self._pixel_points(points)
-        left, top, right, bottom = (
-            self.rect.left - CLIP_MARGIN, self.rect.top - CLIP_MARGIN,
-            self.rect.right + CLIP_MARGIN, self.rect.bottom + CLIP_MARGIN,
-        )  # fmt: skip
-        if len(pixels) and not (
-            (pixels[:, 0] >= left).all() and (pixels[:, 0] <= right).all()
-            and (pixels[:, 1] >= top).all() and (pixels[:, 1] <= bottom).all()
-        ):  # fmt: skip
-            pixels = clip_polygon(pixels, (left, top, right, bottom))
+        box = self.rect.inflate(2 * CLIP_MARGIN, 2 * CLIP_MARGIN)
+        if not ((pixels >= box.topleft).all() and (pixels <= box.bottomright).all()):
+            pixels = clip_polygon(pixels, (box.left, box.top, box.right, box.bottom))
             if len(pixels) < 3:
                 return
         pygame.draw.polygon(self.surface, color, np.rint(pixels).astype(np.int64).tolist(), width)
