@@ -118,8 +118,11 @@ class Params:
                     raise ValueError(f"{f.name}={value!r} must be an integer in {interval_text(f.metadata)}")
                 value = int(value)
                 if not INT64_RANGE[0] <= value <= INT64_RANGE[1]:
+                    low = f"{_low_end(f.metadata)}" if f.metadata["low"] > -math.inf else f"[{INT64_RANGE[0]}"
+                    high = f"{_high_end(f.metadata)}" if f.metadata["high"] < math.inf else f"{INT64_RANGE[1]}]"
                     raise ValueError(
-                        f"{f.name}={value!r} is outside the 64-bit integers [{INT64_RANGE[0]}, {INT64_RANGE[1]}]"
+                        f"{f.name}={value!r} is outside the allowed range {low}, {high} (of the kernels' 64-bit "
+                        "integers)"
                     )
             elif kind is float:
                 if isinstance(value, bool | np.bool_) or not isinstance(value, numbers.Real):
