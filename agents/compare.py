@@ -310,8 +310,8 @@ def compare(
     for env_id in env_ids:
         name = env_name(env_id)
         if retrain_agents:
-            trained = algos if algos is not None else list(find_models(PRETRAINED_DIR, env_id, tuple(ALGOS)))
-            trained = trained or tuple(ALGOS)  # no agent shipped for the env: every algorithm with a config entry
+            # by default those shipped for the env, or where none is, every algorithm with a config entry
+            trained = algos if algos is not None else list(find_models(PRETRAINED_DIR, env_id, learned)) or learned
             log(f"{name}: retraining {', '.join(configured_algos(env_id, trained)) or 'nothing (no config entry)'}")
             retrain(env_id, models_dir, trained, seeds, jobs, timesteps, progress_bar, log)
         runs = find_models(models_dir, env_id, learned)

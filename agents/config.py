@@ -444,10 +444,9 @@ def _check(c: TrainConfig, where: str) -> None:
             _check_range(key, value, value, f"{where}: normalize")
     _check_batches(c, where)
     _check_late_settings(c, where)
-    default = inspect.signature(c.algo_class.__init__).parameters.get("learning_starts")
-    learning_starts = c.hyperparams.get("learning_starts", default.default if default else None)
+    learning_starts = _setting(c, "learning_starts") if issubclass(c.algo_class, OffPolicyAlgorithm) else None
     trained = c.trained_steps(c.n_timesteps)  # SB3 updates once it has collected more than learning_starts steps
-    if isinstance(learning_starts, int) and learning_starts >= trained:
+    if learning_starts is not None and learning_starts >= trained:
         total = f"n_timesteps={c.n_timesteps}" + (f" (trained as {trained})" if trained != c.n_timesteps else "")
         warnings.warn(
             f"{where}: learning_starts={learning_starts} is not below {total}: the run only collects random steps "
