@@ -150,14 +150,20 @@ class TrainConfig:
         """The SB3 algorithm class."""
         return ALGOS[self.algo]
 
+    def setting(self, key: str) -> Any:
+        """The value of the algorithm's argument ``key``: the config's own, or the constructor's default."""
+        if key in self.hyperparams:
+            return self.hyperparams[key]
+        return inspect.signature(self.algo_class.__init__).parameters[key].default
+
     @property
     def collection_steps(self) -> int | None:
         """Env steps SB3 collects between updates, all envs together: PPO's rollout (``n_steps * n_envs``), an
         off-policy algorithm's ``train_freq`` steps on every env; None where ``train_freq`` counts episodes. SB3
         trains whole collections: a fresh run of ``n_timesteps`` trains it rounded up to a multiple of them."""
         if self.algo_class is PPO:
-            return _setting(self, "n_steps") * self.n_envs
-        every, unit = _train_freq(_setting(self, "train_freq"))
+            return self.setting("n_steps") * self.n_envs
+        every, unit = _train_freq(self.setting("train_freq"))
         return every * self.n_envs if unit == "step" else None
 
     def trained_steps(self, asked: int) -> int:
@@ -444,7 +450,7 @@ def _check(c: TrainConfig, where: str) -> None:
             _check_range(key, value, value, f"{where}: normalize")
     _check_batches(c, where)
     _check_late_settings(c, where)
-    learning_starts = _setting(c, "learning_starts") if issubclass(c.algo_class, OffPolicyAlgorithm) else None
+    learning_starts = c.setting("learning_starts") if issubclass(c.algo_class, OffPolicyAlgorithm) else None
     trained = c.trained_steps(c.n_timesteps)  # SB3 updates once it has collected more than learning_starts steps
     if learning_starts is not None and learning_starts >= trained:
         total = f"n_timesteps={c.n_timesteps}" + (f" (trained as {trained})" if trained != c.n_timesteps else "")
@@ -477,13 +483,6 @@ def _check(c: TrainConfig, where: str) -> None:
         )
 
 
-def _setting(c: TrainConfig, key: str) -> Any:
-    """The value of the algorithm's argument ``key`` in ``c``: its own, or the constructor's default."""
-    if key in c.hyperparams:
-        return c.hyperparams[key]
-    return inspect.signature(c.algo_class.__init__).parameters[key].default
-
-
 def _train_freq(train_freq: Any) -> tuple[Any, Any]:
     """An off-policy ``train_freq`` setting (``every`` or ``(every, unit)``) as ``(every, unit)``."""
     return tuple(train_freq) if isinstance(train_freq, list | tuple) else (train_freq, "step")
@@ -493,14 +492,14 @@ def _check_batches(c: TrainConfig, where: str) -> None:
     """ConfigError for the combinations SB3 asserts against when it builds or trains the model: PPO's
     normalised advantages need more than one sample per rollout and per mini-batch; an off-policy algorithm
     trains every n >= 1 steps or episodes, episodes only on one env."""
-    if c.algo_class is PPO and _setting(c, "normalize_advantage"):
-        batch_size, n_steps = _setting(c, "batch_size"), _setting(c, "n_steps")
+    if c.algo_class is PPO and c.setting("normalize_advantage"):
+        batch_size, n_steps = c.setting("batch_size"), c.setting("n_steps")
         if batch_size < 2:
             raise ConfigError(f"{where}: batch_size={batch_size!r} must be at least 2 for ppo")
         if n_steps * c.n_envs < 2:
             raise ConfigError(f"{where}: n_steps * n_envs = {n_steps} * {c.n_envs} must be at least 2 for ppo")
     if issubclass(c.algo_class, OffPolicyAlgorithm):
-        train_freq = _setting(c, "train_freq")
+        train_freq = c.setting("train_freq")
         every, unit = _train_freq(train_freq)
         if unit not in ("step", "episode"):
             raise ConfigError(f"{where}: train_freq={train_freq!r}: its unit is 'step' or 'episode', not {unit!r}")
@@ -550,8 +549,8 @@ def _check_late_settings(c: TrainConfig, where: str) -> None:
             allowed = ", ".join(hints) or f"none: {c.algo} sets every argument of {buffer.__name__} itself"
             raise ConfigError(f"{where}: {key}: unknown key {name!r}; allowed: {allowed}")
         coerce(value, hints[name], f"{where}: {key}: {name}")
-    if off_policy and _setting(c, "optimize_memory_usage"):
-        if _setting(c, "n_steps") > 1:
+    if off_policy and c.setting("optimize_memory_usage"):
+        if c.setting("n_steps") > 1:
             raise ConfigError(f"{where}: optimize_memory_usage=True does not work with n-step returns (n_steps > 1)")
         if buffer_kwargs.get("handle_timeout_termination", True):
             raise ConfigError(

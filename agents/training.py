@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import contextlib
 import importlib.util
-import inspect
 import json
 import os
 import pickle
@@ -423,8 +422,7 @@ def _restore_replay_buffer(model: OffPolicyAlgorithm, config: TrainConfig, out: 
     if source.name == MODEL_FILE and replay.exists():
         model.load_replay_buffer(replay)
         return
-    default = inspect.signature(config.algo_class).parameters["learning_starts"].default
-    model.learning_starts = model.num_timesteps + int(config.hyperparams.get("learning_starts", default))
+    model.learning_starts = model.num_timesteps + int(config.setting("learning_starts"))
 
 
 def _continue_evaluations(callback: EvalCallback, path: Path, done: int) -> None:
