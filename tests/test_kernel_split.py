@@ -225,7 +225,8 @@ def test_a_forked_child_steps_a_split_env_with_helpers_of_its_own() -> None:
 
 @njit(cache=True, nogil=True)
 def _divide(numerators: np.ndarray, denominators: np.ndarray, scale: float, out: np.ndarray) -> bool:
-    """``out = scale * numerators // denominators`` (int64, ZeroDivisionError on a zero), true where any is odd."""
+    """``out = scale * numerators // denominators`` (int64, ZeroDivisionError on a zero); true where any is odd (a
+    result that the split does not keep)."""
     odd = False
     for i in range(len(out)):
         out[i] = scale * numerators[i] // denominators[i]
@@ -239,22 +240,20 @@ def _divide_arguments(n: int = 10_001) -> tuple:
 
 
 @pytest.mark.parametrize("helpers", [1, 3])
-def test_a_split_kernel_returns_and_writes_what_the_kernel_does(helpers: int) -> None:
+def test_a_split_kernel_writes_what_the_kernel_does_and_returns_nothing(helpers: int) -> None:
     args, reference = _divide_arguments(), _divide_arguments()
     split = SplitKernel(_divide, args, [True, True, False, True], helpers)
-    for odd_row in (None, -1, 0):  # no odd output, one in the last chunk only, one in the first only
-        numerators = 2 * np.random.default_rng(7).integers(0, 1000, len(args[0]))
-        denominators = np.ones(len(args[0]), np.int64)
-        if odd_row is not None:
-            numerators[odd_row], denominators[odd_row] = 1, 2
+    for seed in range(3):
+        numerators = np.random.default_rng(seed).integers(0, 1000, len(args[0]))
         for arrays in (args, reference):
-            arrays[0][:], arrays[1][:] = numerators, denominators
+            arrays[0][:] = numerators
         assert split.fits(_divide, args)
-        assert split(args) == _divide(*reference) == (odd_row is not None)
+        assert split(args) is None
+        _divide(*reference)
         np.testing.assert_array_equal(args[3], reference[3])
     split.close()
     args[3][:] = 0.0
-    assert split(args) == _divide(*reference)  # closed: every chunk in the calling thread
+    assert split(args) is None  # closed: every chunk in the calling thread
     np.testing.assert_array_equal(args[3], reference[3])
 
 
@@ -306,26 +305,6 @@ def test_a_split_steps_info_reports_the_step_count_after_the_step_as_one_thread_
     assert counts[0] == counts[1] == [[1, 1, 1], [2, 2, 2], [3, 3, 3]]
 
 
-@pytest.mark.parametrize("env_id", ENV_IDS)
-def test_after_step_leaves_the_state_arrays_that_the_info_reports_as_the_kernel_wrote_them(env_id: str) -> None:
-    """The split's copies of those arrays are made right after the kernel, before ``Task.after_step``."""
-    env = gym.make_vec(env_id, num_envs=16, vectorization_mode="vector_entry_point").unwrapped
-    task, calls = env.task, []
-
-    def checked_after_step(state: dict, out: dict) -> None:
-        reported = [value for value in _leaves(task.info(state, out)) if any(value is s for s in state.values())]
-        before = [value.copy() for value in reported]
-        type(task).after_step(task, state, out)
-        calls.append(len(reported))
-        for value, copy_before in zip(reported, before, strict=True):
-            np.testing.assert_array_equal(value, copy_before)
-
-    task.after_step = checked_after_step
-    _rollout(env, 420)  # PendulumPump first changes its targets after 200-400 steps
-    if type(task).after_step is not vegym.envs.base.Task.after_step:
-        assert calls, "the rollout never ran after_step"
-
-
 @pytest.mark.parametrize("zero_at", [0, -1])
 def test_a_kernel_error_in_any_chunk_is_raised_and_stops_the_helpers(zero_at: int) -> None:
     before = len(_helpers())
@@ -359,14 +338,15 @@ def test_a_helpers_kernel_error_is_raised_by_the_calling_thread() -> None:
 def test_closing_during_calls_from_another_thread_lets_them_finish_right() -> None:
     before = len(_helpers())
     args, reference = _divide_arguments(), _divide_arguments()
-    expected = _divide(*reference)
+    _divide(*reference)
     split = SplitKernel(_divide, args, [True, True, False, True], 1)
     results: list[bool] = []
 
     def calls() -> None:
         for _ in range(300):
             args[3][:] = -1.0
-            results.append(split(args) == expected and np.array_equal(args[3], reference[3]))
+            split(args)
+            results.append(np.array_equal(args[3], reference[3]))
 
     caller = threading.Thread(target=calls)
     caller.start()
@@ -468,8 +448,10 @@ def test_job_numbers_wrap_around_without_stopping_the_helpers() -> None:
     args, reference = _divide_arguments(), _divide_arguments()
     split = SplitKernel(_divide, args, [True, True, False, True], 1)
     split.control[kernel_split._TICKET] = kernel_split._JOB_MASK << 32 | split.chunks  # the last job number, done
+    _divide(*reference)
     for _ in range(3):
-        assert split(args) == _divide(*reference)
+        args[3][:] = -1.0
+        split(args)
         np.testing.assert_array_equal(args[3], reference[3])
         assert split.control[kernel_split._TICKET] >= 0
     assert len(_helpers()) >= 1

@@ -136,8 +136,12 @@ def _step_kernel(
     demand: np.ndarray,
     last_change: np.ndarray,
     next_change: np.ndarray,
+    changes: np.ndarray,
     c: np.ndarray,
     gust_offset: np.uint64,
+    timing: schedule.Timing,
+    ranges: tuple[float, float, float, float],
+    demand_offset: np.uint64,
     flown: np.ndarray,
     errors: np.ndarray,
     terms: np.ndarray,
@@ -145,13 +149,13 @@ def _step_kernel(
     success: np.ndarray,
     terminated: np.ndarray,
     obs: np.ndarray,
-) -> int:
-    """The whole step and the next observation, in place on the state arrays (``position`` to
-    ``vertical_speed``) and into the outputs (``flown``, the demand of the step, to ``obs``); ``c`` holds the
-    parameters named in ``STEP_CONSTANTS``, in that order. The vertical wind is the episode's ``draft`` plus,
-    when ``gust_amplitude > 0``, a gust uniform in +-gust_amplitude drawn from the key's stream ``gust_offset``
-    at counter ``step``. Returns how many episodes have a demand change due at the new step (the caller advances
-    the schedule and observes again then; ``obs`` shows the demand before the change).
+) -> None:
+    """The whole step and the next observation, in place on the state arrays (``position`` to ``changes``)
+    and into the outputs (``flown``, the demand of the step, to ``obs``); ``c`` holds the parameters named in
+    ``STEP_CONSTANTS``, in that order. The vertical wind is the episode's ``draft`` plus, when
+    ``gust_amplitude > 0``, a gust uniform in +-gust_amplitude drawn from the key's stream ``gust_offset`` at
+    counter ``step``. Where demand changes are due at the new step, :func:`_change_demands` hands them out last
+    (``timing``, ``ranges`` and ``demand_offset`` are its).
 
     Written as passes over the batch that the compiler turns into SIMD code (loops without calls or exits): the
     gusts, the commands, the flight, the errors with the reward, the observation, the count of changes due. The
@@ -213,7 +217,11 @@ def _step_kernel(
     due = 0
     for i in range(n):  # the demand changes due at the new step
         due += step[i] + 1 >= next_change[i]
-    return due
+    if due:
+        _change_demands(
+            key, step, changes, last_change, next_change, timing, ranges, demand_offset, demand, position, speed,
+            heading, command, vertical_speed, c, obs,
+        )  # fmt: skip
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -307,7 +315,7 @@ def _draw_demands(
 
 
 @njit(cache=True, nogil=True)
-def _after_step_kernel(
+def _change_demands(
     key: np.ndarray,
     step: np.ndarray,
     changes: np.ndarray,
@@ -401,16 +409,9 @@ class AircraftTask(Task[AircraftEnvParams]):
         return _step_kernel, (
             action, state["key"], state["step"], state["position"], state["speed"], state["heading"],
             state["command"], state["vertical_speed"], state["draft"], state["demand"], state["last_change"],
-            state["next_change"], self._constants, self._gust_offset, out["demand"], out["errors"],
-            out["terms"], out["reward"], out["success"], out["terminated"], out["obs"],
-        )  # fmt: skip
-
-    def after_step(self, state: State, out: State) -> None:
-        """A demand changes at the new step: advance the schedule, then observe the new demands."""
-        _after_step_kernel(
-            state["key"], state["step"], state["changes"], state["last_change"], state["next_change"], self._timing,
-            self._demand_ranges, self._demand_offset, state["demand"], state["position"], state["speed"],
-            state["heading"], state["command"], state["vertical_speed"], self._constants, out["obs"],
+            state["next_change"], state["changes"], self._constants, self._gust_offset, self._timing,
+            self._demand_ranges, self._demand_offset, out["demand"], out["errors"], out["terms"], out["reward"],
+            out["success"], out["terminated"], out["obs"],
         )  # fmt: skip
 
     def info(self, state: State, out: State) -> Info:

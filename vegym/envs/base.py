@@ -63,8 +63,8 @@ class Task(abc.ABC, Generic[P]):
 
     Subclasses set ``params_cls``, build ``observation_space`` and ``action_space`` (single-env spaces) in
     ``__init__``, and implement the methods below. ``state`` dicts always carry ``key`` (uint64 episode keys)
-    and ``step`` (steps taken in the episode), maintained by the front ends. ``step_call``, ``after_step``,
-    ``observe``, ``start`` and ``restart_call`` must work on any row slice of the state (the vector env hands them
+    and ``step`` (steps taken in the episode), maintained by the front ends. ``step_call``, ``observe``,
+    ``start`` and ``restart_call`` must work on any row slice of the state (the vector env hands them
     chunks of its arrays, concurrently).
     """
 
@@ -177,26 +177,19 @@ class Task(abc.ABC, Generic[P]):
     def step(self, state: State, action: np.ndarray, out: State) -> None:
         """Advance every episode of ``state`` in place by one step with actions (n, action_dim) in [-1, 1],
         writing the results and the next observations into the arrays of ``out`` (from :meth:`outputs`): the
-        kernel of :meth:`step_call`, then :meth:`after_step` if the kernel returned true."""
+        kernel of :meth:`step_call`."""
         kernel, args = self.step_call(state, action, out)
-        if kernel(*args):
-            self.after_step(state, out)
+        kernel(*args)
 
     @abc.abstractmethod
     def step_call(self, state: State, action: np.ndarray, out: State) -> KernelCall:
-        """The kernel call that does :meth:`step`'s work on these arrays; the kernel returns true when
-        :meth:`after_step` must follow. The single env binds it once to its own arrays (:func:`bind_kernel`), so its
-        arguments must be those arrays (``state``'s, ``action``, ``out``'s, the task's own) and constants, never
-        values computed from the state. A large vector env runs it over chunks of rows at once
-        (:class:`kernel_split.SplitKernel`), splitting the arrays of ``state``, ``out`` and ``action`` passed as
-        they are (not views) and passing the others whole: each row's results must depend on its own rows and the
-        task's constants only, which the kernel must not write."""
-
-    def after_step(self, state: State, out: State) -> None:
-        """Work after a step whose kernel returned true, such as a demand schedule's change (those rows are then
-        observed again: ``out["obs"]`` must show the state after all of the step). It must leave the state arrays
-        that :meth:`info` reports as the kernel wrote them: a split step copies them for the info right after the
-        kernel (``VegymVectorEnv._step_task``)."""
+        """The kernel call that does all of :meth:`step`'s work on these arrays, a demand schedule's changes
+        too (``out["obs"]`` shows the state after all of the step). The single env binds it once to its own arrays
+        (:func:`bind_kernel`), so its arguments must be those arrays (``state``'s, ``action``, ``out``'s, the
+        task's own) and constants, never values computed from the state. A large vector env runs it over chunks of
+        rows at once (:class:`kernel_split.SplitKernel`), splitting the arrays of ``state``, ``out`` and ``action``
+        passed as they are (not views) and passing the others whole: each row's results must depend on its own rows
+        and the task's constants only, which the kernel must not write."""
 
     @abc.abstractmethod
     def info(self, state: State, out: State) -> Info:
@@ -644,8 +637,7 @@ class VegymEnv(gym.Env[np.ndarray, np.ndarray], Generic[P]):
                 f"{type(self).__name__}: step() after the episode terminated; call reset() first (this step goes on "
                 "from its final state, in an episode that the task never starts)"
             )
-        if self._run_step():
-            self.task.after_step(state, self._out)
+        self._run_step()
         steps = self._steps
         count = steps[0] + 1
         steps[0] = count
@@ -1041,8 +1033,10 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             except ValueError:  # not splittable: this env steps in one thread from now on
                 self._split_helpers, split, copies = 0, None, ()
             self._split = split
-        if kernel(*args) if split is None else split((*args, *copies)):
-            self.task.after_step(state, out)
+        if split is None:
+            kernel(*args)
+        else:
+            split((*args, *copies))
         return {} if split is None else {id(args[k]): copy for k, copy in zip(split.copies, copies, strict=True)}
 
     def _restart_call_to_split(

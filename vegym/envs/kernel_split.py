@@ -73,11 +73,11 @@ posted (``SPIN_S``)."""
 SPLIT_SETTLE_S = 2e-6 * MAX_NAP_US
 """Seconds after a change to running over threads not timed: twice the longest nap a helper may be in then."""
 
-_TICKET, _FINISHED, _RESULT, _FAILED, _STOP, _KIND = (8 * k for k in range(6))
+_TICKET, _FINISHED, _FAILED, _STOP, _KIND = (8 * k for k in range(5))
 """Slots of the control array (int64), each in a 64-byte cache line of its own: the ticket ``job << 32 | chunk``,
-the next chunk of the current job to take; how many of its chunks are finished; whether a chunk's kernel returned
-true; whether a helper's kernel raised; whether the helpers are to stop (after the chunk they hold); which of the
-split's calls the current job runs (0 the first, 1 the second)."""
+the next chunk of the current job to take; how many of its chunks are finished; whether a helper's kernel raised;
+whether the helpers are to stop (after the chunk they hold); which of the split's calls the current job runs (0 the
+first, 1 the second)."""
 _SLOTS = _KIND + 8
 _CHUNK_MASK = (1 << 32) - 1
 _JOB_MASK = (1 << 31) - 1
@@ -180,18 +180,6 @@ def _copy(source: np.ndarray, destination: np.ndarray) -> None:
         flat[i] = value
 
 
-def _truth(value: Any) -> int:
-    """Numba-only: a kernel's result as 0 or 1 (None as 0)."""
-    raise NotImplementedError("only callable inside numba-compiled code")
-
-
-@overload(_truth)
-def _truth_impl(value):  # noqa: ANN001, ANN202
-    if isinstance(value, types.NoneType):
-        return lambda value: 0
-    return lambda value: 1 if value else 0
-
-
 def _caller_side(
     control: np.ndarray,
     table: np.ndarray,
@@ -203,12 +191,12 @@ def _caller_side(
     solo: bool,
     layout: str,
     batch: str,
-) -> tuple[bool, bool]:
+) -> bool:
     """Numba-only: the calling thread's side of one split call (see the overload)."""
     raise NotImplementedError("only callable inside numba-compiled code")
 
 
-def _helper_side(table: np.ndarray, scalars: tuple[Any, ...], chunk: int, chunks: int, layout: str, batch: str) -> int:
+def _helper_side(table: np.ndarray, scalars: tuple[Any, ...], chunk: int, chunks: int, layout: str, batch: str) -> None:
     """Numba-only: a helper's run of one chunk (see the overload)."""
     raise NotImplementedError("only callable inside numba-compiled code")
 
@@ -239,7 +227,7 @@ def _fields(
 
 
 def _compile(source: str, kernel: Any, **names: Any) -> Callable[..., Any]:
-    namespace = {"kernel": kernel, "_truth": _truth, "carray": carray, **names}
+    namespace = {"kernel": kernel, "carray": carray, **names}
     exec(source, namespace)  # noqa: S102
     return namespace["generated"]
 
@@ -253,7 +241,7 @@ def _caller_side_impl(control, table, args, chunks, spin_rounds, naps, kind, sol
     ``chunks`` chunks of the split's call ``kind`` (0 or 1), take chunks until none is left, then wait for the
     helpers' chunks: ``spin_rounds`` rounds, then naps of ``naps[1]`` us (``usleep`` at address ``naps[0]``)
     between looks. With ``solo``, run every chunk in this thread instead and post nothing. Returns whether a
-    chunk's kernel returned true and whether a helper's kernel raised."""
+    helper's kernel raised."""
     if not (isinstance(layout, types.StringLiteral) and isinstance(batch, types.StringLiteral)):
         return None
     kernel, fields, arity, copies = _fields(layout, batch)
@@ -272,15 +260,13 @@ def _caller_side_impl(control, table, args, chunks, spin_rounds, naps, kind, sol
 def generated(control, table, args, chunks, spin_rounds, naps, kind, solo, layout, batch):
     n = args[{first}].shape[0]
     if solo:
-        any_true = 0
         for chunk in range(chunks):
             {_BOUNDS}
-            any_true |= _truth(kernel({chunk_args})){copy_rows}
-        return any_true != 0, False
+            kernel({chunk_args}){copy_rows}
+        return False
     {"; ".join(writes)}
     control[{_KIND}] = kind
     control[{_FINISHED}] = 0
-    control[{_RESULT}] = 0
     _store_release(control, {_TICKET}, (((_load_acquire(control, {_TICKET}) >> 32) + 1) & {_JOB_MASK}) << 32)
     while True:
         ticket = _load_acquire(control, {_TICKET})
@@ -289,19 +275,18 @@ def generated(control, table, args, chunks, spin_rounds, naps, kind, solo, layou
             break
         if _compare_exchange(control, {_TICKET}, ticket, ticket + 1):
             {_BOUNDS}
-            result = _truth(kernel({chunk_args})){copy_rows}
-            _atomic_update(control, {_RESULT}, result, "or")
+            kernel({chunk_args}){copy_rows}
             _atomic_update(control, {_FINISHED}, 1, "add")
     rounds = 0
     while _load_acquire(control, {_FINISHED}) != chunks:
         if _load_acquire(control, {_FAILED}) != 0:
-            return False, True
+            return True
         rounds += 1
         if rounds < spin_rounds:
             _pause()
         else:  # the helper holding the chunk may need this core
             _usleep(naps[0], naps[1])
-    return control[{_RESULT}] != 0, False
+    return False
 """
     return _compile(
         source, kernel, _store_release=_store_release, _load_acquire=_load_acquire,
@@ -312,7 +297,7 @@ def generated(control, table, args, chunks, spin_rounds, naps, kind, solo, layou
 
 @overload(_helper_side)
 def _helper_side_impl(table, scalars, chunk, chunks, layout, batch):  # noqa: ANN001, ANN202
-    """Run chunk ``chunk`` of ``chunks`` on the arrays of ``table`` and ``scalars``; the kernel's truth (0, 1)."""
+    """Run chunk ``chunk`` of ``chunks`` on the arrays of ``table`` and ``scalars``."""
     if not (isinstance(layout, types.StringLiteral) and isinstance(batch, types.StringLiteral)):
         return None
     kernel, fields, arity, copies = _fields(layout, batch)
@@ -337,8 +322,7 @@ def generated(table, scalars, chunk, chunks, layout, batch):
     n = table[{rows_at}]
     {_BOUNDS}
     {"; ".join(f"a{k} = {array}" for k, array in enumerate(arrays))}
-    result = _truth(kernel({", ".join(f"a{k}" for k in range(arity))})){copy_rows}
-    return result
+    kernel({", ".join(f"a{k}" for k in range(arity))}){copy_rows}
 """
     return _compile(
         source, kernel, _pointer=kernel_call._pointer, _read_only=kernel_call._read_only, _copy=_copy, **names
@@ -357,7 +341,7 @@ def _split_call(
     solo: bool,
     layout: str,
     batch: str,
-) -> tuple[bool, bool]:
+) -> bool:
     return _caller_side(
         control, table, args, chunks, spin_rounds, naps, kind, solo, literally(layout), literally(batch)
     )
@@ -404,12 +388,11 @@ def _serve(
         if chunk < chunks:
             if _compare_exchange(control, _TICKET, ticket, ticket + 1):  # the job's kind was stored before its ticket
                 if control[_KIND] == 0:
-                    result = _helper_side(tables[0], scalars, chunk, chunks, literally(layout), literally(batch))
+                    _helper_side(tables[0], scalars, chunk, chunks, literally(layout), literally(batch))
                 else:
-                    result = _helper_side(
+                    _helper_side(
                         tables[1], second_scalars, chunk, chunks, literally(second_layout), literally(second_batch)
                     )
-                _atomic_update(control, _RESULT, result, "or")
                 _atomic_update(control, _FINISHED, 1, "add")
                 seen, idle, nap = ticket >> 32, 0, naps[1]
             continue
@@ -646,16 +629,16 @@ class SplitKernel:
         parent's helpers)."""
         return job < len(self.jobs) and self.jobs[job].fits(kernel, args) and self.pid == os.getpid()
 
-    def __call__(self, args: tuple[Any, ...], job: int = 0) -> bool:
-        """Its job ``job``'s kernel over the chunks of ``args`` (which must :meth:`fit <fits>`): whether a chunk's
-        kernel returned true. A kernel's error is raised here: from the calling thread's chunk at once (the chunks
+    def __call__(self, args: tuple[Any, ...], job: int = 0) -> None:
+        """Its job ``job``'s kernel over the chunks of ``args`` (which must :meth:`fit <fits>`); the kernel's result is
+        not kept. A kernel's error is raised here: from the calling thread's chunk at once (the chunks
         it had not taken are then not run), from a helper's once the others are done; then the helpers stop, and
         later calls run in the calling thread. Either way the call is incomplete, as after an error in one
         thread."""
         target = self.jobs[job]
         solo = self.chooser.choose(time.perf_counter()) if job == 0 else self.chooser.solo
         try:
-            result, failed = target.call(
+            failed = target.call(
                 self.control, target.table, args, self.chunks, self._spin_rounds, self._naps, job, solo, target.layout,
                 target.batch,
             )  # fmt: skip
@@ -665,7 +648,6 @@ class SplitKernel:
         if failed:
             self.close()
             raise self.errors[0]
-        return result
 
 
 @njit(cache=True, nogil=True)

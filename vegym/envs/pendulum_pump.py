@@ -102,9 +102,15 @@ def _step_kernel(
     theta: np.ndarray,
     omega: np.ndarray,
     target: np.ndarray,
-    next_change: np.ndarray,
+    key: np.ndarray,
     step: np.ndarray,
+    changes: np.ndarray,
+    last_change: np.ndarray,
+    next_change: np.ndarray,
     c: np.ndarray,
+    timing: schedule.Timing,
+    bounds: tuple[float, float],
+    target_offset: np.uint64,
     torque: np.ndarray,
     energy: np.ndarray,
     amplitude: np.ndarray,
@@ -115,14 +121,14 @@ def _step_kernel(
     success: np.ndarray,
     terminated: np.ndarray,
     obs: np.ndarray,
-) -> bool:
-    """The whole step but the target schedule, and the next observation, in place on ``theta`` (rad, wrapped to
-    [-pi, pi)) and ``omega`` (rad/s) and into the outputs (``torque`` to ``obs``): the torque (N m), energy (J),
-    amplitude (rad), target amplitude (rad) and target energy (J) of this step, the reward terms (amplitude,
-    effort), reward, is_success and terminated (never). ``target``, ``next_change`` and ``step`` (the steps taken
-    before this one) are read only; ``c``: see ``PendulumPumpTask._constants``. Returns whether a target change is
-    due at this step in some episode, whose state and observation the caller must then update (the observations
-    written here show the target before the change).
+) -> None:
+    """The whole step and the next observation, in place on ``theta`` (rad, wrapped to [-pi, pi)) and ``omega``
+    (rad/s) and into the outputs (``torque`` to ``obs``): the torque (N m), energy (J), amplitude (rad), target
+    amplitude (rad) and target energy (J) of this step, the reward terms (amplitude, effort), reward, is_success
+    and terminated (never); ``step`` counts the steps taken before this one; ``c``: see
+    ``PendulumPumpTask._constants``. Where target changes are due at the new step, :func:`_change_targets` hands
+    them out last, in place on ``target`` to ``next_change`` and those rows of ``obs`` (``timing``, ``bounds``
+    and ``target_offset`` are its).
 
     Written as passes over the batch that the compiler turns into SIMD code: the substeps (each a pass over the
     state in scratch arrays), the energies, the amplitudes and the terms; the strided stores of the terms and
@@ -159,7 +165,10 @@ def _step_kernel(
     for i in range(n):  # strided stores
         terms[i, 0], terms[i, 1] = tracking[i], effort[i]
         _observe_row(i, sine[i], cosine[i], omega[i], target[i], energy[i], target_energy[i], amplitude[i], c, obs)
-    return changing
+    if changing:
+        _change_targets(
+            key, step, changes, last_change, next_change, timing, bounds, target_offset, target, theta, omega, c, obs
+        )
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
@@ -220,7 +229,7 @@ def _draw_targets(keys: np.ndarray, index: np.ndarray, bounds: tuple[float, floa
 
 
 @njit(cache=True, nogil=True)
-def _after_step_kernel(
+def _change_targets(
     key: np.ndarray,
     step: np.ndarray,
     changes: np.ndarray,
@@ -311,18 +320,10 @@ class PendulumPumpTask(Task[PendulumPumpParams]):
 
     def step_call(self, state: State, action: np.ndarray, out: State) -> KernelCall:
         return _step_kernel, (
-            action, state["theta"], state["omega"], state["target"], state["next_change"], state["step"],
-            self._constants, out["torque"], out["energy"], out["amplitude"], out["target_amplitude"],
+            action, state["theta"], state["omega"], state["target"], state["key"], state["step"], state["changes"],
+            state["last_change"], state["next_change"], self._constants, self._timing, self._target_bounds,
+            self._target_offset, out["torque"], out["energy"], out["amplitude"], out["target_amplitude"],
             out["target_energy"], out["terms"], out["reward"], out["success"], out["terminated"], out["obs"],
-        )  # fmt: skip
-
-    def after_step(self, state: State, out: State) -> None:
-        """Hand out the new targets due at this step (``state["step"]`` not yet counted), in place, and observe the
-        episodes that changed again."""
-        _after_step_kernel(
-            state["key"], state["step"], state["changes"], state["last_change"], state["next_change"], self._timing,
-            self._target_bounds, self._target_offset, state["target"], state["theta"], state["omega"],
-            self._constants, out["obs"],
         )  # fmt: skip
 
     def info(self, state: State, out: State) -> Info:

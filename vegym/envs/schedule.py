@@ -5,8 +5,8 @@ minus one), ``last_change`` (step of the latest change) and ``next_change`` (ste
 :data:`NO_CHANGE`). Intervals between changes are uniform in ``[interval_min, interval_max]`` seconds, drawn
 from the episode key, and no change comes after ``last_step`` (so the final demand can be flown).
 
-:func:`change_step` and :func:`advance_due` are inlined into the tasks' after-step kernels, whose numba cache does
-not see edits to them: clear ``__pycache__`` after changing them.
+:func:`change_step` and :func:`advance_due` are inlined into the tasks' step kernels, which hand out the changes due
+as their last work; their numba cache does not see edits here: clear ``__pycache__`` after changing them.
 """
 
 from __future__ import annotations
@@ -64,9 +64,9 @@ def advance_due(
     next_change: np.ndarray,
     timing: Timing,
 ) -> np.ndarray:
-    """For after-step kernels: at the new step ``step + 1``, in place, every episode whose change is due moves on
-    to its next demand number (``changes``), handed out now, and the change after it. Returns the rows that
-    changed (int indices, ascending); the caller draws their demands, number ``changes[row]``."""
+    """For step kernels, as their last work: at the new step ``step + 1``, in place, every episode whose change is
+    due moves on to its next demand number (``changes``), handed out now, and the change after it. Returns the rows
+    that changed (int indices, ascending); the caller draws their demands, number ``changes[row]``."""
     due = 0
     for i in range(len(step)):
         due += step[i] + 1 >= next_change[i]
