@@ -94,6 +94,63 @@ def test_a_split_step_gives_the_one_thread_step_bit_for_bit(
     single.close()
 
 
+def _read_only(array: np.ndarray) -> np.ndarray:
+    array.flags.writeable = False
+    return array
+
+
+ACTION_KINDS: dict[str, Callable[[np.ndarray], object]] = {
+    "float32": np.ascontiguousarray,
+    "float64": lambda action: action.astype(np.float64),
+    "list": lambda action: action.tolist(),
+    "read-only float32": lambda action: _read_only(action.copy()),
+    "strided float32": lambda action: np.repeat(action, 2, axis=0)[::2],
+    "flat float32": lambda action: action.reshape(-1) if action.shape[1] == 1 else action,
+    "within the tolerance outside": lambda action: np.where(action > 0.5, np.float32(1.0000005), action),
+}
+"""Kinds of actions: those a split step converts in its chunks (``CONVERTED_IN_CHUNKS``) and others, which the
+calling thread loads first."""
+CONVERTED_IN_CHUNKS = {"float32", "flat float32", "within the tolerance outside"}
+"""C-contiguous, aligned, writeable float32 arrays of the actions' shape (``(num_envs,)`` for one number each),
+within ``ACTION_TOLERANCE`` of [-1, 1]."""
+
+
+@pytest.mark.parametrize("env_id", ["vegym/Aircraft-v0", "vegym/PendulumPump-v0"])
+def test_a_split_step_takes_every_kind_of_actions_as_the_one_thread_step_does_and_keeps_its_split(env_id: str) -> None:
+    split, single = _vector_env(env_id, 1), _vector_env(env_id, 0)
+    rng = np.random.default_rng(1)
+    for env in (split, single):
+        env.reset(seed=2)
+    made = None
+    for kind in [*ACTION_KINDS, *reversed(ACTION_KINDS)]:  # each kind after another one
+        action = rng.uniform(-1, 1, split.action_space.shape).astype(np.float32)
+        _assert_same(split.step(ACTION_KINDS[kind](action))[:4], single.step(ACTION_KINDS[kind](action))[:4])
+        made = made or split.unwrapped._split
+        assert split.unwrapped._split is made, f"{kind} actions made a new split"
+        assert split.unwrapped._load_flag[0] == (kind in CONVERTED_IN_CHUNKS), kind
+    split.close()
+    single.close()
+
+
+@pytest.mark.parametrize("bad", [np.nan, np.inf, 1.5])
+def test_a_bad_action_in_a_split_step_raises_before_any_row_steps(bad: float) -> None:
+    split, single = _vector_env("vegym/Aircraft-v0", 1), _vector_env("vegym/Aircraft-v0", 0)
+    action = np.zeros(split.action_space.shape, np.float32)
+    for env in (split, single):
+        env.reset(seed=2)
+        env.step(action)
+    before = copy.deepcopy(split.unwrapped.state)
+    wrong = action.copy()
+    wrong[-1, -1] = bad
+    with pytest.raises(ValueError, match="NaN or inf" if bad != 1.5 else "outside the action space"):
+        split.step(wrong)
+    for name, value in split.unwrapped.state.items():
+        np.testing.assert_array_equal(value, before[name], err_msg=name)
+    _assert_same(split.step(action)[:4], single.step(action)[:4])
+    split.close()
+    single.close()
+
+
 SOME_ROWS_RESTARTS = ["vegym/BouncingBall-v0", "vegym/ProjectileAdjust-v0", "vegym/SteerableWheel-v0"]
 """The envs whose restart kernel takes some rows, which a split step runs over parts of them."""
 EVERY_ROW_RESTARTS = ["vegym/Billiards-v0", "vegym/Projectile-v0"]
@@ -267,11 +324,6 @@ def test_each_chunk_copies_its_rows_of_the_arrays_named_in_copies_after_its_kern
     np.testing.assert_array_equal(out, reference[3])  # the kernel's output, every row
     np.testing.assert_array_equal(numerators, reference[0])
     split.close()
-
-
-def _read_only(array: np.ndarray) -> np.ndarray:
-    array.flags.writeable = False
-    return array
 
 
 @pytest.mark.parametrize(

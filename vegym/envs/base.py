@@ -228,22 +228,47 @@ class Task(abc.ABC, Generic[P]):
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _load_actions(source: np.ndarray, target: np.ndarray, tolerance: float) -> int:
-    """Copy ``source`` (C-contiguous, ``target.size`` elements) into the float64 array ``target`` (C order),
-    clipping values within ``tolerance`` outside [-1, 1]. Returns 0, or 1 for NaN/inf, 2 for values further out.
-    The copy is branch-free, so that it runs as SIMD code; only a bad action is looked at again."""
-    values, flat = source.reshape(-1), target.reshape(-1)
-    limit, bad = 1.0 + tolerance, False
+def _check_actions(source: np.ndarray, tolerance: float) -> int:
+    """0 where every number of ``source`` (C-contiguous) lies within ``tolerance`` of [-1, 1], else 1 for NaN/inf or
+    2 for values further out; read only. The first pass is branch-free, so that it runs as SIMD code; only a bad
+    action is looked at again."""
+    values, limit, bad = source.reshape(-1), 1.0 + tolerance, False
     for j in range(values.size):
-        x = np.float64(values[j])
-        bad |= not abs(x) <= limit  # also NaN
-        flat[j] = min(max(x, -1.0), 1.0)
+        bad |= not abs(np.float64(values[j])) <= limit  # also NaN
     if not bad:
         return 0
     for j in range(values.size):
         if not np.isfinite(np.float64(values[j])):
             return 1
     return 2
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _clip_into(source: np.ndarray, target: np.ndarray) -> None:
+    """``target`` (float64) = ``source`` (C-contiguous, as many numbers) clipped to [-1, 1], in one SIMD pass: the
+    values within the tolerance of :func:`_check_actions` outside it are clipped so."""
+    values, flat = source.reshape(-1), target.reshape(-1)
+    for j in range(values.size):
+        flat[j] = min(max(np.float64(values[j]), -1.0), 1.0)
+
+
+@njit(cache=True, nogil=True)
+def _clip_actions(load: np.ndarray, source: np.ndarray, target: np.ndarray) -> None:
+    """:func:`_clip_into` where ``load[0]``: a split step's first call, which converts the checked actions of its
+    chunk's rows, or none where the calling thread loaded them (:meth:`VegymVectorEnv.step`)."""
+    if load[0]:
+        _clip_into(source, target)
+
+
+@njit(cache=True, nogil=True)
+def _load_actions(source: np.ndarray, target: np.ndarray, tolerance: float) -> int:
+    """Copy ``source`` (C-contiguous, ``target.size`` numbers) into the float64 array ``target`` (C order), clipping
+    values within ``tolerance`` outside [-1, 1], where :func:`_check_actions` finds them all so; returns its
+    status (0: copied)."""
+    status = _check_actions(source, tolerance)
+    if status == 0:
+        _clip_into(source, target)
+    return status
 
 
 @njit(cache=True, nogil=True)
@@ -256,15 +281,13 @@ def _end_step(
     active: np.ndarray,
     truncated: np.ndarray,
     autoreset: np.ndarray,
-) -> np.ndarray:
+) -> None:
     """A vector step's bookkeeping, in place, in one branch-free pass: the step counted in ``step``, which is 0
     for the ``resetting`` sub-envs (they start an episode now, with reward 0 and not terminated); ``active`` the
     others; ``truncated`` where an active sub-env reached ``max_steps`` steps; ``autoreset`` where it terminated
-    or truncated. Returns the resetting rows (int indices)."""
-    count = 0
+    or truncated. Row by row: a split step's last call."""
     for i in range(len(step)):
-        r = resetting[i]
-        a = not r
+        a = not resetting[i]
         counted = (step[i] + 1) * a
         step[i] = counted
         active[i] = a
@@ -272,14 +295,6 @@ def _end_step(
         ended = terminated[i] & a
         cut = a & (counted >= max_steps)
         terminated[i], truncated[i], autoreset[i] = ended, cut, ended | cut
-        count += r
-    rows = np.empty(count + 1, np.intp)
-    if count:
-        j = 0
-        for i in range(len(step)):  # branch-free: every row is written, the next one overwrites it if not resetting
-            rows[j] = i
-            j += resetting[i]
-    return rows[:count]
 
 
 def action_shapes(n: int, dim: int) -> frozenset[tuple[int, ...]]:
@@ -322,7 +337,12 @@ def check_actions(action: Any, target: np.ndarray, expected: tuple[int, ...] | N
     return target
 
 
-_DIRECT_DTYPES = (np.dtype(np.float32), np.dtype(np.float64))
+_FLOAT32 = np.dtype(np.float32)
+_NO_LIMIT = int(np.iinfo(np.int64).max)
+"""The step count of :func:`_end_step` without a time limit."""
+_NO_ROWS = np.empty(0, np.intp)
+_NO_ROWS.flags.writeable = False
+_DIRECT_DTYPES = (_FLOAT32, np.dtype(np.float64))
 
 
 class ActionLoader:
@@ -333,6 +353,11 @@ class ActionLoader:
         self.target = np.empty((n, *action_shape))
         self._direct_shapes = action_shapes(*self.target.shape)
         self._expected = action_shape if single else self.target.shape  # the shape that errors name
+
+    @property
+    def direct_shapes(self) -> frozenset[tuple[int, ...]]:
+        """The shapes of the actions it takes as they are (:func:`action_shapes`)."""
+        return self._direct_shapes
 
     def __call__(self, action: Any) -> np.ndarray:
         """``action`` loaded into the target array (the array returned); ValueError as :func:`check_actions`."""
@@ -863,6 +888,10 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         """Which restarts the split runs too (:meth:`_restart_call_to_split`)."""
         self._chunk_rows = self._every
         """For each row, its index in its chunk of the split (:func:`_chunk_rows`)."""
+        self._load_flag = np.zeros(1, np.bool_)
+        """``load`` of :func:`_clip_actions` in the steps (whether ``source`` holds the actions)."""
+        self._unused_source: np.ndarray | None = None
+        """:meth:`_no_source`'s array, once made."""
 
     def reset(
         self, *, seed: int | list[int] | None = None, options: dict[str, Any] | None = None
@@ -973,24 +1002,27 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         state = self.state
         if state is None:
             raise gym.error.ResetNeeded("Call reset() before step().")
-        a = self._load_actions(actions)
+        source = self._checked_source(actions)
+        a = self._load_actions.target if source is not None else self._load_actions(actions)
         n = self.num_envs
         out = self.task.outputs(n)
         resetting = self._autoreset
         every_resets = resetting.all()
+        active, truncated, self._autoreset = np.empty(n, np.bool_), np.empty(n, np.bool_), np.empty(n, np.bool_)
+        max_steps = self.max_episode_steps if self.max_episode_steps is not None else _NO_LIMIT
+        reward, terminated = out["reward"], out["terminated"]
+        end = (state["step"], resetting, max_steps, reward, terminated, active, truncated, self._autoreset)
         if every_resets:  # the restart below observes every sub-env
             for name, value in out.items():
                 if name != "obs":
                     value.fill(0)
+            _end_step(*end)
             copies = {}
         else:
-            copies = self._step_task(state, a, out)
-        active, truncated, self._autoreset = np.empty(n, np.bool_), np.empty(n, np.bool_), np.empty(n, np.bool_)
-        max_steps = self.max_episode_steps if self.max_episode_steps is not None else np.iinfo(np.int64).max
-        reward, terminated = out["reward"], out["terminated"]
-        rows = _end_step(state["step"], resetting, max_steps, reward, terminated, active, truncated, self._autoreset)
+            copies = self._step_task(state, a, out, source, end)
         active.flags.writeable = False  # the one mask of every info entry
         info = self._vector_info(self.task.info(state, out), active, *self._state_ids(state), copies)
+        rows = self._every if every_resets else np.flatnonzero(resetting) if resetting.any() else _NO_ROWS
         if len(rows):
             self._renew_episode_constants(every_row=every_resets)
         if every_resets:
@@ -1001,23 +1033,53 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             self._record_renderers(rows, info)
         return out["obs"], reward, terminated, truncated, info
 
-    def _step_task(self, state: State, actions: np.ndarray, out: State) -> dict[int, np.ndarray]:
-        """The task's step of every sub-env (:meth:`Task.step`): with two or more chunks of ``SPLIT_MIN_ROWS`` rows and
-        of threads (:func:`_split_helpers`), its kernel runs over chunks of rows in this thread and helper threads at
-        once (:class:`kernel_split.SplitKernel`, which may run them all in this thread), where it can be split: its
-        arguments that are the arrays of ``state``, ``out`` and ``actions`` themselves are split by rows, the others
-        passed whole; and each chunk copies its rows of the state arrays that the info reports (but ``step``, which the
-        bookkeeping after the kernel counts), for the info (each thread copies the rows it wrote). The split's second
-        call is the task's restart kernel (:meth:`_restart_call_to_split`). Returns those copies by the ids of their
-        state arrays (none where not split)."""
+    def _checked_source(self, actions: Any) -> np.ndarray | None:
+        """``actions`` as the rows that a split step's chunks convert themselves (:func:`_clip_actions`), checked
+        here: a writeable, aligned, C-contiguous float32 array of the shape of the actions (or ``(num_envs,)`` for
+        one-dimensional ones) all of whose numbers pass :func:`_check_actions`. None where this thread loads them
+        first (:class:`ActionLoader`, which also raises the errors): the step is not split, or the actions are of
+        another kind, which would not fit the split's types."""
+        target = self._load_actions.target
+        if (
+            self._split_helpers < 1
+            or type(actions) is not np.ndarray
+            or actions.dtype != _FLOAT32
+            or actions.size != target.size
+            or actions.shape not in self._load_actions.direct_shapes
+            or not (actions.flags.c_contiguous and actions.flags.aligned and actions.flags.writeable)
+            or _check_actions(actions, ACTION_TOLERANCE)
+        ):
+            return None
+        return actions.reshape(target.shape)
+
+    def _step_task(
+        self, state: State, actions: np.ndarray, out: State, source: np.ndarray | None, end: tuple[Any, ...]
+    ) -> dict[int, np.ndarray]:
+        """The task's step of every sub-env (:meth:`Task.step`) between the conversion of the actions ``source``
+        (checked float32 rows, :meth:`_checked_source`) into ``actions``, where given (else ``actions`` holds them),
+        and the bookkeeping :func:`_end_step` of ``end``, its arguments. With two or more chunks of
+        ``SPLIT_MIN_ROWS`` rows and of threads (:func:`_split_helpers`), the three run over chunks of rows in this
+        thread and helper threads at once (:class:`kernel_split.SplitKernel`, which may run them all in this
+        thread), where the kernel can be split: its arguments that are the arrays of ``state``, ``out`` and
+        ``actions`` themselves are split by rows, the others passed whole; and each chunk copies its rows of the
+        state arrays that the info reports (but ``step``, which the bookkeeping counts), for the info (each thread
+        copies the rows it wrote), right after the kernel. The split's second call is the task's restart kernel
+        (:meth:`_restart_call_to_split`). Returns those copies by the ids of their state arrays (none where not
+        split)."""
+        load = self._load_flag
+        load[0] = source is not None
+        before = (load, source if source is not None else self._no_source(), actions)
         if self._split_helpers < 1:
+            _clip_actions(*before)
             self.task.step(state, actions, out)
+            _end_step(*end)
             return {}
         kernel, args = self.task.step_call(state, actions, out)
         split = self._split
         same = split is not None and split.kernel is kernel and len(args) == split.arity
         copies = tuple(np.empty_like(args[k]) for k in split.copies) if same else ()
-        if not same or not split.fits(kernel, (*args, *copies)):
+        call = (*before, *args, *copies, *end)
+        if not same or not split.fits(kernel, call):
             if split is not None:
                 split.close()
             rows = {id(array) for array in (*state.values(), *out.values(), actions)}
@@ -1028,16 +1090,30 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             batch = [id(arg) in rows for arg in args] + [True] * len(copies)
             self._chunk_rows = _chunk_rows(self.num_envs, self._split_helpers + 1)
             self._split_restarts, second = self._restart_call_to_split(state, out["obs"])
+            clip = (_clip_actions, before, [False, True, True])
+            count = (_end_step, end, [True, True, False, True, True, True, True, True])
+            call = (*before, *args, *copies, *end)
             try:
-                split = SplitKernel(kernel, (*args, *copies), batch, self._split_helpers, sources, second)
+                split = SplitKernel(
+                    kernel, (*args, *copies), batch, self._split_helpers, sources, second, before=clip, after=count
+                )
             except ValueError:  # not splittable: this env steps in one thread from now on
                 self._split_helpers, split, copies = 0, None, ()
             self._split = split
         if split is None:
+            _clip_actions(*before)
             kernel(*args)
-        else:
-            split((*args, *copies))
-        return {} if split is None else {id(args[k]): copy for k, copy in zip(split.copies, copies, strict=True)}
+            _end_step(*end)
+            return {}
+        split(call)
+        return {id(args[k]): copy for k, copy in zip(split.copies, copies, strict=True)}
+
+    def _no_source(self) -> np.ndarray:
+        """The float32 rows that a split step's conversion is given, and skips, where this thread loaded the
+        actions: made once."""
+        if self._unused_source is None:
+            self._unused_source = np.zeros(self._load_actions.target.shape, np.float32)
+        return self._unused_source
 
     def _restart_call_to_split(
         self, state: State, obs: np.ndarray
@@ -1094,6 +1170,8 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)
+        self.__dict__.setdefault("_load_flag", np.zeros(1, np.bool_))  # pickled before the split loaded actions
+        self.__dict__.setdefault("_unused_source", None)
         if not self.closed:  # this machine's threads, not the original's
             self._split_helpers = _split_helpers(self.num_envs)
 

@@ -20,6 +20,7 @@ import contextlib
 import ctypes
 import functools
 import math
+import operator
 import os
 import platform
 import statistics
@@ -82,6 +83,8 @@ _SLOTS = _KIND + 8
 _CHUNK_MASK = (1 << 32) - 1
 _JOB_MASK = (1 << 31) - 1
 """Job numbers wrap around at 2**31."""
+Call = tuple[Callable[..., Any], tuple[Any, ...], Sequence[bool]]
+"""A call that a split makes besides its kernel's: ``(kernel, arguments, which arguments are split by rows)``."""
 _X86 = platform.machine().lower() in ("x86_64", "amd64", "i386", "i686", "x86")
 
 
@@ -203,33 +206,45 @@ def _helper_side(table: np.ndarray, scalars: tuple[Any, ...], chunk: int, chunks
 
 def _fields(
     layout: types.StringLiteral, batch: types.StringLiteral
-) -> tuple[Any, list[tuple[str, int, bool]], int, list[tuple[int, int]]]:
-    """The kernel that ``layout`` (:func:`kernel_call.packed_layout`) names, the call's arguments' fields, each
-    ``(field, ndim, split by rows)`` (ndim 0 for a scalar), the kernel's argument count and the copies, each
-    ``(source, destination)`` argument positions. ``batch`` has ``"b"`` for each argument split by rows, ``"-"``
-    for the others, then ``">"`` and the copies' sources, comma-separated: their destinations are the last
-    arguments, past the kernel's."""
-    target, _, *fields = layout.literal_value.split("|")
-    flags, _, sources = batch.literal_value.partition(">")
-    module, name = target.split(":")
-    kernel = getattr(__import__(module, fromlist=[name]), name)
-    copied = [int(k) for k in sources.split(",")] if sources else []
-    arity = len(fields) - len(copied)
-    return (
-        kernel,
-        [
+) -> tuple[list[tuple[str, int, bool]], list[tuple[Any, list[int], list[tuple[int, int]]]]]:
+    """A job's arguments and calls from its ``layout`` and ``batch`` (:meth:`_Job.__init__`): each argument's
+    ``(field, ndim, split by rows)`` (ndim 0 for a scalar), in the order of the job's argument tuple, and each call
+    in order as ``(kernel, its arguments' positions, its copies)``, each copy ``(source, destination)`` positions.
+    ``layout`` joins with ``";"`` each call's :func:`kernel_call.packed_layout` (of its arguments, then its copies'
+    destinations); ``batch`` joins each call's marks: ``"b"`` for each argument split by rows, ``"-"`` for the
+    others, then ``">"`` and the copies' sources (positions among the call's arguments), comma-separated."""
+    fields: list[tuple[str, int, bool]] = []
+    calls = []
+    for call_layout, marks in zip(layout.literal_value.split(";"), batch.literal_value.split(";"), strict=True):
+        target, _, *call_fields = call_layout.split("|")
+        flags, _, sources = marks.partition(">")
+        module, name = target.split(":")
+        kernel = getattr(__import__(module, fromlist=[name]), name)
+        copied = [int(k) for k in sources.split(",")] if sources else []
+        start, arity = len(fields), len(call_fields) - len(copied)
+        fields += [
             (field, 0 if field == "s" else int(field.split(":")[1]), flag == "b")
-            for field, flag in zip(fields, flags, strict=True)
-        ],
-        arity,
-        [(source, arity + k) for k, source in enumerate(copied)],
-    )
+            for field, flag in zip(call_fields, flags, strict=True)
+        ]
+        copies = [(start + source, start + arity + k) for k, source in enumerate(copied)]
+        calls.append((kernel, list(range(start, start + arity)), copies))
+    return fields, calls
 
 
-def _compile(source: str, kernel: Any, **names: Any) -> Callable[..., Any]:
-    namespace = {"kernel": kernel, "carray": carray, **names}
+def _compile(source: str, kernels: list[Any], **names: Any) -> Callable[..., Any]:
+    namespace = {**{f"kernel_{j}": kernel for j, kernel in enumerate(kernels)}, "carray": carray, **names}
     exec(source, namespace)  # noqa: S102
     return namespace["generated"]
+
+
+def _chunk_body(calls: list[tuple[Any, list[int], list[tuple[int, int]]]], argument: Callable[[int], str]) -> str:
+    """One chunk's statements, on one line: each call in turn, then its copies; ``argument(k)`` is the code of
+    argument ``k`` in the chunk."""
+    return "; ".join(
+        f"kernel_{j}({', '.join(map(argument, positions))})"
+        + "".join(f"; _copy({argument(source)}, {argument(to)})" for source, to in copies)
+        for j, (_, positions, copies) in enumerate(calls)
+    )
 
 
 _BOUNDS = "lo, hi = n * chunk // chunks, n * (chunk + 1) // chunks"
@@ -244,17 +259,14 @@ def _caller_side_impl(control, table, args, chunks, spin_rounds, naps, kind, sol
     helper's kernel raised."""
     if not (isinstance(layout, types.StringLiteral) and isinstance(batch, types.StringLiteral)):
         return None
-    kernel, fields, arity, copies = _fields(layout, batch)
+    fields, calls = _fields(layout, batch)
     writes, position = [], 0
     for k, (_, ndim, _) in enumerate(fields):
         if ndim:
             writes.append(f"table[{position}] = args[{k}].ctypes.data")
             writes += [f"table[{position + 1 + d}] = args[{k}].shape[{d}]" for d in range(ndim)]
             position += 1 + ndim
-    chunk_args = ", ".join(
-        f"args[{k}][lo:hi]" if split else f"args[{k}]" for k, (_, _, split) in enumerate(fields[:arity])
-    )
-    copy_rows = "".join(f"; _copy(args[{source}][lo:hi], args[{to}][lo:hi])" for source, to in copies)
+    chunk = _chunk_body(calls, lambda k: f"args[{k}][lo:hi]" if fields[k][2] else f"args[{k}]")
     first = next(k for k, (_, _, split) in enumerate(fields) if split)
     source = f"""
 def generated(control, table, args, chunks, spin_rounds, naps, kind, solo, layout, batch):
@@ -262,7 +274,7 @@ def generated(control, table, args, chunks, spin_rounds, naps, kind, solo, layou
     if solo:
         for chunk in range(chunks):
             {_BOUNDS}
-            kernel({chunk_args}){copy_rows}
+            {chunk}
         return False
     {"; ".join(writes)}
     control[{_KIND}] = kind
@@ -275,7 +287,7 @@ def generated(control, table, args, chunks, spin_rounds, naps, kind, solo, layou
             break
         if _compare_exchange(control, {_TICKET}, ticket, ticket + 1):
             {_BOUNDS}
-            kernel({chunk_args}){copy_rows}
+            {chunk}
             _atomic_update(control, {_FINISHED}, 1, "add")
     rounds = 0
     while _load_acquire(control, {_FINISHED}) != chunks:
@@ -289,7 +301,7 @@ def generated(control, table, args, chunks, spin_rounds, naps, kind, solo, layou
     return False
 """
     return _compile(
-        source, kernel, _store_release=_store_release, _load_acquire=_load_acquire,
+        source, [kernel for kernel, _, _ in calls], _store_release=_store_release, _load_acquire=_load_acquire,
         _compare_exchange=_compare_exchange, _atomic_update=_atomic_update, _pause=_pause, _usleep=_usleep,
         _copy=_copy,
     )  # fmt: skip
@@ -300,7 +312,7 @@ def _helper_side_impl(table, scalars, chunk, chunks, layout, batch):  # noqa: AN
     """Run chunk ``chunk`` of ``chunks`` on the arrays of ``table`` and ``scalars``."""
     if not (isinstance(layout, types.StringLiteral) and isinstance(batch, types.StringLiteral)):
         return None
-    kernel, fields, arity, copies = _fields(layout, batch)
+    fields, calls = _fields(layout, batch)
     names, arrays, position, scalar = {}, [], 0, 0
     for k, (field, ndim, split) in enumerate(fields):
         if not ndim:
@@ -316,16 +328,20 @@ def _helper_side_impl(table, scalars, chunk, chunks, layout, batch):  # noqa: AN
         position += 1 + ndim
     first = next(k for k, (_, _, split) in enumerate(fields) if split)
     rows_at = sum(1 + ndim for _, ndim, _ in fields[:first] if ndim) + 1  # the first batch array's row count
-    copy_rows = "".join(f"; _copy(a{source}, a{to})" for source, to in copies)
     source = f"""
 def generated(table, scalars, chunk, chunks, layout, batch):
     n = table[{rows_at}]
     {_BOUNDS}
     {"; ".join(f"a{k} = {array}" for k, array in enumerate(arrays))}
-    kernel({", ".join(f"a{k}" for k in range(arity))}){copy_rows}
+    {_chunk_body(calls, lambda k: f"a{k}")}
 """
     return _compile(
-        source, kernel, _pointer=kernel_call._pointer, _read_only=kernel_call._read_only, _copy=_copy, **names
+        source,
+        [kernel for kernel, _, _ in calls],
+        _pointer=kernel_call._pointer,
+        _read_only=kernel_call._read_only,
+        _copy=_copy,
+        **names,
     )
 
 
@@ -413,18 +429,32 @@ def _compiled(dispatcher: Any, signature: tuple[Any, ...]) -> Callable[..., Any]
     return None if compiled is None else compiled.entry_point
 
 
+def _marks(batch: Sequence[bool], copies: Sequence[int] = ()) -> str:
+    """A call's marks in a job's ``batch`` literal (:func:`_fields`)."""
+    return "".join("b" if split else "-" for split in batch) + ">" + ",".join(map(str, copies))
+
+
 class _Job:
-    """One call that a split runs over chunks: its kernel, packed layout and scalars, the ``batch`` literal (see
-    :func:`_fields`), the table of its arrays' addresses and shapes and the calling thread's compiled side."""
+    """One job that a split runs over chunks: its ``calls`` made in turn on each chunk, each ``(kernel, arguments,
+    marks)`` (marks as in :func:`_fields`), of which the call ``main`` names the job (:meth:`fits`); their packed
+    layout and scalars, the ``batch`` literal, the table of their arrays' addresses and shapes and the calling
+    thread's compiled side. The job's argument tuple is the calls' arguments, one call's after another's."""
 
     def __init__(
-        self, kernel: Callable[..., Any], args: tuple[Any, ...], batch: str, control: np.ndarray, naps: tuple
-    ) -> None:
-        packed = kernel_call.packed_layout(kernel, args)
-        if packed is None:
-            raise ValueError(f"{kernel!r} cannot be split over these arguments")
-        self.kernel, self.batch = kernel, batch
-        self.layout, self.scalars = packed
+        self, calls: Sequence[tuple[Callable[..., Any], tuple[Any, ...], str]], main: int, control: np.ndarray,
+        naps: tuple,
+    ) -> None:  # fmt: skip
+        layouts, scalars = [], []
+        for kernel, call_args, _ in calls:
+            packed = kernel_call.packed_layout(kernel, call_args)
+            if packed is None:
+                raise ValueError(f"{kernel!r} cannot be split over these arguments")
+            layouts.append(packed[0])
+            scalars += packed[1]
+        args = tuple(arg for _, call_args, _ in calls for arg in call_args)
+        self.kernel = calls[main][0]
+        self.layout, self.batch = ";".join(layouts), ";".join(marks for _, _, marks in calls)
+        self.scalars = tuple(scalars)
         self.fingerprint, self._scalars_text = compute_fingerprint(args), repr(self.scalars)
         self._scalar_positions = tuple(k for k, arg in enumerate(args) if not isinstance(arg, np.ndarray))
         self.table = np.zeros(sum(1 + arg.ndim for arg in args if isinstance(arg, np.ndarray)), np.intp)
@@ -433,18 +463,20 @@ class _Job:
             _split_call,
             (
                 typeof(control), typeof(self.table), typeof(args), types.intp, types.intp, typeof(naps), types.intp,
-                types.boolean, types.literal(self.layout), types.literal(batch),
+                types.boolean, types.literal(self.layout), types.literal(self.batch),
             ),
         )  # fmt: skip
         if self.call is None:
-            raise ValueError(f"{kernel!r} cannot be split: numba's cache has no code for its layout")
+            raise ValueError(f"{self.kernel!r} cannot be split: numba's cache has no code for its layout")
 
     def fits(self, kernel: Callable[..., Any], args: tuple[Any, ...]) -> bool:
-        """Whether this job makes the call ``kernel(*args)`` (see :meth:`SplitKernel.fits`)."""
+        """Whether this job, named by ``kernel``, makes its calls on ``args`` (see :meth:`SplitKernel.fits`): the
+        scalars the very objects of its own (the helpers hold those), or of the same text."""
+        scalars = tuple(args[k] for k in self._scalar_positions)
         return (
             kernel is self.kernel
             and compute_fingerprint(args) == self.fingerprint
-            and repr(tuple(args[k] for k in self._scalar_positions)) == self._scalars_text
+            and (all(map(operator.is_, scalars, self.scalars)) or repr(scalars) == self._scalars_text)
         )
 
 
@@ -532,15 +564,17 @@ class SplitKernel:
     those only. With ``copies``, the positions of batch arguments, the last ``len(copies)`` arguments are not the
     kernel's but arrays of the same dtypes and shapes, batch arguments too, into which each chunk copies its rows
     of those arguments after its kernel (by the thread that wrote them, while they are in its cache; ``TypeError``
-    for copies of other arguments or into other arrays). With ``second``, a call ``(kernel, args, batch)`` that the
-    same helpers run too (``job=1``): its batch arguments, all of one length, are split by their first axis in the
-    same way, but the others may have as many rows (row indices split between chunks that write those rows of whole
-    arrays, say); each chunk must write what no other chunk writes or reads. A second call that cannot be split is
-    left out (no call fits ``job=1``). Both calls run over the threads or all in the calling thread, as
-    :attr:`chooser` decides from the first's times. :meth:`close` (or dropping it) stops the helpers.
-    ``ValueError`` where the kernel cannot be split (then call it unsplit): not a kernel numba caches on disk,
-    arguments the shim cannot take, a whole argument with as many rows as the batch ones (a row array that is not
-    marked), no ``usleep``, or no thread to be had."""
+    for copies of other arguments or into other arrays). ``before`` and ``after``, calls ``(kernel, args, batch)``
+    whose batch arguments have the rows of ``kernel``'s, are made on each chunk before ``kernel`` and after it
+    (and its copies): the split's calls then take ``(*before_args, *args, *after_args)``. With ``second``, a call
+    ``(kernel, args, batch)`` that the same helpers run too (``job=1``): its batch arguments, all of one length,
+    are split by their first axis in the same way, but the others may have as many rows (row indices split between
+    chunks that write those rows of whole arrays, say); each chunk must write what no other chunk writes or reads.
+    A second call that cannot be split is left out (no call fits ``job=1``). Both jobs run over the threads or all
+    in the calling thread, as :attr:`chooser` decides from the first's times. :meth:`close` (or dropping it) stops
+    the helpers. ``ValueError`` where the kernel cannot be split (then call it unsplit): not a kernel numba caches
+    on disk, arguments the shim cannot take, a whole argument with as many rows as the batch ones (a row array
+    that is not marked), no ``usleep``, or no thread to be had."""
 
     def __init__(
         self,
@@ -549,10 +583,15 @@ class SplitKernel:
         batch: Sequence[bool],
         helpers: int,
         copies: Sequence[int] = (),
-        second: tuple[Callable[..., Any], tuple[Any, ...], Sequence[bool]] | None = None,
+        second: Call | None = None,
+        before: Call | None = None,
+        after: Call | None = None,
     ) -> None:
-        rows = {len(arg) for arg, split in zip(args, batch, strict=True) if split}
-        whole = [arg for arg, split in zip(args, batch, strict=True) if isinstance(arg, np.ndarray) and not split]
+        around = [call for call in (before, after) if call is not None]
+        marked = [(args, batch), *((call_args, call_batch) for _, call_args, call_batch in around)]
+        pairs = [pair for call_args, call_batch in marked for pair in zip(call_args, call_batch, strict=True)]
+        rows = {len(arg) for arg, split in pairs if split}
+        whole = [arg for arg, split in pairs if isinstance(arg, np.ndarray) and not split]
         if compute_fingerprint is None or not _USLEEP or len(rows) != 1 or helpers < 1:
             raise ValueError(f"{kernel!r} cannot be split over these arguments on this platform")
         if any(arg.shape[0] in rows for arg in whole):
@@ -581,14 +620,17 @@ class SplitKernel:
         self.chooser = ModeChooser()
         """Whether calls run over the threads or in the calling thread alone, chosen from the first call's
         times."""
-        marks = "".join("b" if split else "-" for split in batch) + ">" + ",".join(map(str, copies))
-        self.jobs = [_Job(kernel, args, marks, self.control, self._naps)]
-        """The calls this split makes: ``kernel(*args)``'s, and ``second``'s if given."""
+        calls = [(kernel, args, _marks(batch, copies))]
+        if before is not None:
+            calls.insert(0, (before[0], before[1], _marks(before[2])))
+        if after is not None:
+            calls.append((after[0], after[1], _marks(after[2])))
+        self.jobs = [_Job(calls, int(before is not None), self.control, self._naps)]
+        """The jobs this split runs: ``kernel``'s (with ``before`` and ``after``), and ``second``'s if given."""
         second_rows = second is not None and {len(a) for a, split in zip(*second[1:], strict=True) if split}
         if second_rows and len(second_rows) == 1:
-            second_marks = "".join("b" if split else "-" for split in second[2]) + ">"
             with contextlib.suppress(ValueError):  # left out: that call runs unsplit (its job never fits)
-                self.jobs.append(_Job(*second[:2], second_marks, self.control, self._naps))
+                self.jobs.append(_Job([(second[0], second[1], _marks(second[2]))], 0, self.control, self._naps))
         first, last = self.jobs[0], self.jobs[-1]
         typeof = _split_call.typeof_pyval
         serve = _compiled(
@@ -623,15 +665,15 @@ class SplitKernel:
             raise ValueError(f"{kernel!r} cannot be split: {error}") from error
 
     def fits(self, kernel: Callable[..., Any], args: tuple[Any, ...], job: int = 0) -> bool:
-        """Whether this split makes the call ``kernel(*args)`` as its job ``job`` (0: the first call, 1: the
-        second): the same kernel, arguments of the same types (numba's fingerprint: dtype, dimensions, layout,
-        writability), scalars of the same types and values, and this process (a forked child has none of its
-        parent's helpers)."""
+        """Whether this split makes the call ``kernel(*args)`` as its job ``job`` (0: the first call, with
+        ``before``'s arguments ahead of ``args`` and ``after``'s behind where given; 1: the second): the same
+        kernel, arguments of the same types (numba's fingerprint: dtype, dimensions, layout, writability), scalars
+        of the same types and values, and this process (a forked child has none of its parent's helpers)."""
         return job < len(self.jobs) and self.jobs[job].fits(kernel, args) and self.pid == os.getpid()
 
     def __call__(self, args: tuple[Any, ...], job: int = 0) -> None:
-        """Its job ``job``'s kernel over the chunks of ``args`` (which must :meth:`fit <fits>`); the kernel's result is
-        not kept. A kernel's error is raised here: from the calling thread's chunk at once (the chunks
+        """Its job ``job``'s calls over the chunks of ``args`` (which must :meth:`fit <fits>`); the kernels' results
+        are not kept. A kernel's error is raised here: from the calling thread's chunk at once (the chunks
         it had not taken are then not run), from a helper's once the others are done; then the helpers stop, and
         later calls run in the calling thread. Either way the call is incomplete, as after an error in one
         thread."""
