@@ -314,6 +314,38 @@ def test_a_split_kernel_writes_what_the_kernel_does_and_returns_nothing(helpers:
     np.testing.assert_array_equal(args[3], reference[3])
 
 
+@njit(cache=True, nogil=True)
+def _add(values: np.ndarray, amount: float, out: np.ndarray) -> None:
+    """``out = values + amount``, row by row."""
+    for i in range(len(out)):
+        out[i] = values[i] + amount
+
+
+@pytest.mark.parametrize("alone", [False, True], ids=["over threads", "alone"])
+def test_each_chunk_makes_the_before_call_then_the_kernel_then_the_after_call(
+    alone: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Each call reads what the one before wrote: ``numerators = source + 1``, the kernel, ``last = out + 0.5``."""
+    if alone:
+        _run_alone(monkeypatch)
+    args = _divide_arguments()
+    source, last = args[0] - 1, np.zeros(len(args[0]))
+    before, after = (
+        (_add, (source, 1.0, args[0]), [True, False, True]),
+        (_add, (args[3], 0.5, last), [True, False, True]),
+    )
+    split = SplitKernel(_divide, args, [True, True, False, True], 1, before=before, after=after)
+    call = (*before[1], *args, *after[1])
+    assert split.fits(_divide, call) and not split.fits(_divide, args)
+    args[0][:] = -1
+    split(call)
+    expected = _divide_arguments()
+    _divide(*expected)
+    np.testing.assert_array_equal(last, expected[3] + 0.5)
+    assert (_posted_jobs(split) == 0) == alone
+    split.close()
+
+
 @pytest.mark.parametrize("helpers", [1, 3])
 def test_each_chunk_copies_its_rows_of_the_arrays_named_in_copies_after_its_kernel(helpers: int) -> None:
     args, reference = _divide_arguments(), _divide_arguments()

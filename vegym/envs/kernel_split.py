@@ -472,12 +472,10 @@ class _Job:
     def fits(self, kernel: Callable[..., Any], args: tuple[Any, ...]) -> bool:
         """Whether this job, named by ``kernel``, makes its calls on ``args`` (see :meth:`SplitKernel.fits`): the
         scalars the very objects of its own (the helpers hold those), or of the same text."""
+        if kernel is not self.kernel or compute_fingerprint(args) != self.fingerprint:
+            return False
         scalars = tuple(args[k] for k in self._scalar_positions)
-        return (
-            kernel is self.kernel
-            and compute_fingerprint(args) == self.fingerprint
-            and (all(map(operator.is_, scalars, self.scalars)) or repr(scalars) == self._scalars_text)
-        )
+        return all(map(operator.is_, scalars, self.scalars)) or repr(scalars) == self._scalars_text
 
 
 class ModeChooser:
