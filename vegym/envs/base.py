@@ -297,6 +297,21 @@ def _end_step(
         terminated[i], truncated[i], autoreset[i] = ended, cut, ended | cut
 
 
+@njit(cache=True, nogil=True)
+def _rows_of(mask: np.ndarray) -> np.ndarray:
+    """The rows (int indices, ascending) where ``mask`` (bool) is true."""
+    count = 0
+    for i in range(len(mask)):
+        count += mask[i]
+    rows = np.empty(count + 1, np.intp)
+    if count:
+        j = 0
+        for i in range(len(mask)):  # branch-free: every row is written, the next one overwrites it if not in mask
+            rows[j] = i
+            j += mask[i]
+    return rows[:count]
+
+
 def action_shapes(n: int, dim: int) -> frozenset[tuple[int, ...]]:
     """The shapes in which ``n`` actions of ``dim`` numbers are taken: ``(n, dim)``, a single env's ``(dim,)`` and
     ``(n,)`` for one-dimensional actions (and, by :func:`check_actions`, any shape of one number for one)."""
@@ -340,8 +355,6 @@ def check_actions(action: Any, target: np.ndarray, expected: tuple[int, ...] | N
 _FLOAT32 = np.dtype(np.float32)
 _NO_LIMIT = int(np.iinfo(np.int64).max)
 """The step count of :func:`_end_step` without a time limit."""
-_NO_ROWS = np.empty(0, np.intp)
-_NO_ROWS.flags.writeable = False
 _DIRECT_DTYPES = (_FLOAT32, np.dtype(np.float64))
 
 
@@ -1002,12 +1015,13 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         state = self.state
         if state is None:
             raise gym.error.ResetNeeded("Call reset() before step().")
-        source = self._checked_source(actions)
+        source = self._checked_source(actions) if self._split_helpers else None
         a = self._load_actions.target if source is not None else self._load_actions(actions)
         n = self.num_envs
         out = self.task.outputs(n)
         resetting = self._autoreset
-        every_resets = resetting.all()
+        rows = _rows_of(resetting)
+        every_resets = len(rows) == n
         active, truncated, self._autoreset = np.empty(n, np.bool_), np.empty(n, np.bool_), np.empty(n, np.bool_)
         max_steps = self.max_episode_steps if self.max_episode_steps is not None else _NO_LIMIT
         reward, terminated = out["reward"], out["terminated"]
@@ -1022,7 +1036,6 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             copies = self._step_task(state, a, out, source, end)
         active.flags.writeable = False  # the one mask of every info entry
         info = self._vector_info(self.task.info(state, out), active, *self._state_ids(state), copies)
-        rows = self._every if every_resets else np.flatnonzero(resetting) if resetting.any() else _NO_ROWS
         if len(rows):
             self._renew_episode_constants(every_row=every_resets)
         if every_resets:
@@ -1037,12 +1050,11 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         """``actions`` as the rows that a split step's chunks convert themselves (:func:`_clip_actions`), checked
         here: a writeable, aligned, C-contiguous float32 array of the shape of the actions (or ``(num_envs,)`` for
         one-dimensional ones) all of whose numbers pass :func:`_check_actions`. None where this thread loads them
-        first (:class:`ActionLoader`, which also raises the errors): the step is not split, or the actions are of
-        another kind, which would not fit the split's types."""
+        first (:class:`ActionLoader`, which also raises the errors): actions of another kind, which would not fit
+        the split's types. For a split step only."""
         target = self._load_actions.target
         if (
-            self._split_helpers < 1
-            or type(actions) is not np.ndarray
+            type(actions) is not np.ndarray
             or actions.dtype != _FLOAT32
             or actions.size != target.size
             or actions.shape not in self._load_actions.direct_shapes
@@ -1066,14 +1078,13 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         copies the rows it wrote), right after the kernel. The split's second call is the task's restart kernel
         (:meth:`_restart_call_to_split`). Returns those copies by the ids of their state arrays (none where not
         split)."""
-        load = self._load_flag
-        load[0] = source is not None
-        before = (load, source if source is not None else self._no_source(), actions)
-        if self._split_helpers < 1:
-            _clip_actions(*before)
+        if self._split_helpers < 1:  # then source is None
             self.task.step(state, actions, out)
             _end_step(*end)
             return {}
+        load = self._load_flag
+        load[0] = source is not None
+        before = (load, source if source is not None else self._no_source(), actions)
         kernel, args = self.task.step_call(state, actions, out)
         split = self._split
         same = split is not None and split.kernel is kernel and len(args) == split.arity
