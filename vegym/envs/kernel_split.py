@@ -3,7 +3,7 @@
 The calling thread writes the arrays' addresses and shapes into a table, posts a job, runs its first chunk and
 then takes any chunk left, one at a time, while the helpers take the others; it returns when every chunk is done.
 The first chunk is always the calling thread's, so that from step to step each thread finds its rows of the state
-in its own cache (where either could take it, 8,192 Aircraft envs stepped in 150-170 us, 150-155 us since). The
+in its own cache (where either could take it, 8,192 Aircraft envs stepped in 153-169 us, 151-162 us since). The
 other chunks are taken by an atomic compare-and-swap on one counter that also names the job, so a chunk runs once,
 and a helper that is late, napping or stopped only leaves more chunks to the caller: results never depend on the
 helpers (a helper that has taken a chunk is waited for, and one descheduled then delays the step). A helper is a
