@@ -233,6 +233,33 @@ def test_an_interrupted_first_reset_leaves_the_env_usable(monkeypatch: pytest.Mo
     assert_same(env.step(action), reference.step(action))
 
 
+def test_an_interrupted_vector_step_keeps_the_autoreset_flags_of_the_step_before(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Ctrl-C inside a vector step, after its episodes ended: the next step still starts them (the flags are replaced
+    only once a step has counted the new ones)."""
+    env, reference = (
+        gym.make_vec("vegym/Projectile-v0", num_envs=4, vectorization_mode="vector_entry_point") for _ in range(2)
+    )
+    action = np.full(env.action_space.shape, 0.3, np.float32)
+    for vector in (env, reference):
+        vector.reset(seed=2)
+        assert vector.step(action)[2].all()  # one-step episodes: every sub-env restarts on the next step
+    flags = env.unwrapped._autoreset
+    expected = flags.copy()
+
+    def interrupted(*args: object) -> None:
+        raise KeyboardInterrupt
+
+    with monkeypatch.context() as patch:
+        patch.setattr(base, "_end_step", interrupted)
+        with pytest.raises(KeyboardInterrupt):
+            env.step(action)
+    assert env.unwrapped._autoreset is flags  # not a new array that the interrupted step never filled
+    np.testing.assert_array_equal(flags, expected)
+    assert_same(env.step(action), reference.step(action))
+
+
 @pytest.mark.parametrize("env_id", ENV_IDS)
 def test_observations_stay_finite_and_inside_the_space(env_id: str) -> None:
     env = gym.make_vec(env_id, num_envs=256, vectorization_mode="vector_entry_point")

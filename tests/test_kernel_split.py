@@ -94,6 +94,30 @@ def test_a_split_step_gives_the_one_thread_step_bit_for_bit(
     single.close()
 
 
+@pytest.mark.parametrize(
+    ("env_id", "intervals"), [("vegym/Aircraft-v0", (2.0, 5.0)), ("vegym/PendulumPump-v0", (0.1, 0.25))]
+)
+def test_a_split_step_hands_out_the_demand_changes_as_the_one_thread_step_does(
+    env_id: str, intervals: tuple[float, float]
+) -> None:
+    """The step kernel hands them out as its last work, so each chunk does its rows' (every 2 to 5 steps here); the
+    info's copies of the state come after them."""
+    envs = []
+    for helpers in (1, 0):
+        env = gym.make_vec(
+            env_id, num_envs=SPLIT_ENVS, vectorization_mode="vector_entry_point",
+            change_interval_min=intervals[0], change_interval_max=intervals[1],
+        )  # fmt: skip
+        env.unwrapped._split_helpers = helpers
+        envs.append(env)
+    split_outputs, single_outputs = _rollout(envs[0], 30), _rollout(envs[1], 30)
+    assert isinstance(envs[0].unwrapped._split, SplitKernel)
+    assert envs[0].unwrapped.state["changes"].min() >= 4
+    _assert_same(split_outputs, single_outputs)
+    for env in envs:
+        env.close()
+
+
 def _read_only(array: np.ndarray) -> np.ndarray:
     array.flags.writeable = False
     return array

@@ -1022,10 +1022,10 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         resetting = self._autoreset
         rows = _rows_of(resetting)
         every_resets = len(rows) == n
-        active, truncated, self._autoreset = np.empty(n, np.bool_), np.empty(n, np.bool_), np.empty(n, np.bool_)
+        active, truncated, autoreset = np.empty(n, np.bool_), np.empty(n, np.bool_), np.empty(n, np.bool_)
         max_steps = self.max_episode_steps if self.max_episode_steps is not None else _NO_LIMIT
         reward, terminated = out["reward"], out["terminated"]
-        end = (state["step"], resetting, max_steps, reward, terminated, active, truncated, self._autoreset)
+        end = (state["step"], resetting, max_steps, reward, terminated, active, truncated, autoreset)
         if every_resets:  # the restart below observes every sub-env
             for name, value in out.items():
                 if name != "obs":
@@ -1034,6 +1034,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             copies = {}
         else:
             copies = self._step_task(state, a, out, source, end)
+        self._autoreset = autoreset  # only once the step has counted it: an interrupted step keeps the old flags
         active.flags.writeable = False  # the one mask of every info entry
         info = self._vector_info(self.task.info(state, out), active, *self._state_ids(state), copies)
         if len(rows):
@@ -1051,7 +1052,8 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         here: a writeable, aligned, C-contiguous float32 array of the shape of the actions (or ``(num_envs,)`` for
         one-dimensional ones) all of whose numbers pass :func:`_check_actions`. None where this thread loads them
         first (:class:`ActionLoader`, which also raises the errors): actions of another kind, which would not fit
-        the split's types. For a split step only."""
+        the split's types. For a split step only; the chunks read the array again, so it must not change during the
+        step (as no env's actions may)."""
         target = self._load_actions.target
         if (
             type(actions) is not np.ndarray
@@ -1177,7 +1179,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         self._split, self._split_helpers = None, 0
 
     def __getstate__(self) -> dict[str, Any]:
-        return {**self.__dict__, "_split": None}
+        return {**self.__dict__, "_split": None, "_unused_source": None}
 
     def __setstate__(self, state: dict[str, Any]) -> None:
         self.__dict__.update(state)

@@ -256,10 +256,9 @@ _BOUNDS = "lo, hi = n * chunk // chunks, n * (chunk + 1) // chunks"
 def _caller_side_impl(control, table, args, chunks, spin_rounds, naps, kind, solo, layout, batch):  # noqa: ANN001, ANN202
     """Write the arrays' addresses and shapes into ``table`` (``[address, *shape]`` per array), post a job of
     ``chunks`` chunks of the split's call ``kind`` (0 or 1), run the first, take the others until none is left,
-    then wait for the
-    helpers' chunks: ``spin_rounds`` rounds, then naps of ``naps[1]`` us (``usleep`` at address ``naps[0]``)
-    between looks. With ``solo``, run every chunk in this thread instead and post nothing. Returns whether a
-    helper's kernel raised."""
+    then wait for the helpers' chunks: ``spin_rounds`` rounds, then naps of ``naps[1]`` us (``usleep`` at address
+    ``naps[0]``) between looks. With ``solo``, run every chunk in this thread instead and post nothing. Returns
+    whether a helper's kernel raised."""
     if not (isinstance(layout, types.StringLiteral) and isinstance(batch, types.StringLiteral)):
         return None
     fields, calls = _fields(layout, batch)
@@ -678,8 +677,9 @@ class SplitKernel:
 
     def __call__(self, args: tuple[Any, ...], job: int = 0) -> None:
         """Its job ``job``'s calls over the chunks of ``args`` (which must :meth:`fit <fits>`); the kernels' results
-        are not kept. A kernel's error is raised here: from the calling thread's chunk at once (the chunks
-        it had not taken are then not run), from a helper's once the others are done; then the helpers stop, and
+        are not kept. A kernel's error is raised here: from the calling thread's chunk at once (a helper may
+        still be running its chunk then, and chunks that no thread had taken are not run), from a helper's once the
+        others are done; then the helpers stop, and
         later calls run in the calling thread. Either way the call is incomplete, as after an error in one
         thread."""
         target = self.jobs[job]
