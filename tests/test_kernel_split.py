@@ -87,6 +87,7 @@ def test_a_split_step_gives_the_one_thread_step_bit_for_bit(
     split, single = _vector_env(env_id, 1), _vector_env(env_id, 0)
     split_outputs, single_outputs = _rollout(split, 40), _rollout(single, 40)
     assert isinstance(split.unwrapped._split, SplitKernel)
+    assert split.unwrapped._info_overlaps  # the info is built while the helper runs its chunk
     assert (_posted_jobs(split.unwrapped._split) == 0) == alone
     assert single.unwrapped._split is None
     _assert_same(split_outputs, single_outputs)
@@ -370,6 +371,57 @@ def test_each_chunk_makes_the_before_call_then_the_kernel_then_the_after_call(
     split.close()
 
 
+def test_then_runs_after_the_calling_threads_chunk_and_its_result_is_returned() -> None:
+    args, reference = _divide_arguments(), _divide_arguments()
+    _divide(*reference)
+    split = SplitKernel(_divide, args, [True, True, False, True], 1)
+    seen = []
+    for _ in range(20):
+        args[3][:] = -1.0
+        assert split(args, then=lambda: seen.append(split.control[kernel_split._FINISHED]) or "info") == "info"
+        np.testing.assert_array_equal(args[3], reference[3])
+    assert len(seen) == 20 and all(0 < finished <= split.chunks for finished in seen)  # its own chunk done at least
+    split.close()
+
+
+def test_an_error_in_then_is_raised_after_the_helpers_chunks_and_the_split_goes_on() -> None:
+    args, reference = _divide_arguments(), _divide_arguments()
+    _divide(*reference)
+    split = SplitKernel(_divide, args, [True, True, False, True], 1)
+
+    def failing() -> None:
+        raise KeyboardInterrupt
+
+    args[3][:] = -1.0
+    with pytest.raises(KeyboardInterrupt):
+        split(args, then=failing)
+    assert split.control[kernel_split._FINISHED] == split.chunks  # waited for: no helper writes on after it
+    np.testing.assert_array_equal(args[3], reference[3])
+    args[3][:] = -1.0
+    split(args)
+    np.testing.assert_array_equal(args[3], reference[3])
+    split.close()
+
+
+def test_the_first_chunk_shrinks_while_then_makes_the_calling_thread_the_slower_within_its_bounds() -> None:
+    """A slow ``then`` (2 ms, far longer than a helper's chunk): the helpers are done first (but for a helper held up
+    by a loaded host), so the first chunk loses rows call by call down to its fewest; calls without ``then`` leave
+    it."""
+    args = _divide_arguments()
+    split = SplitKernel(_divide, args, [True, True, False, True], 1)
+    even = split.cut
+    for _ in range(5):
+        split(args)
+    assert split.cut == even == len(args[0]) // 2
+    fewest, _, step = split._cuts
+    cuts = []
+    for _ in range(2 * (even - fewest) // step):
+        split(args, then=lambda: time.sleep(2e-3))
+        cuts.append(split.cut)
+    assert min(cuts) >= fewest and cuts[-1] == fewest
+    split.close()
+
+
 @pytest.mark.parametrize("helpers", [1, 3])
 def test_each_chunk_copies_its_rows_of_the_arrays_named_in_copies_after_its_kernel(helpers: int) -> None:
     args, reference = _divide_arguments(), _divide_arguments()
@@ -399,7 +451,8 @@ def test_copies_of_non_batch_arguments_or_into_mismatched_or_read_only_arrays_ar
 
 
 def test_a_split_steps_info_reports_the_step_count_after_the_step_as_one_thread_does() -> None:
-    """``step`` is counted after the kernel, so the chunks do not copy it for the info."""
+    """``step`` is counted after the kernel, so the chunks do not copy it for the info, which the calling thread then
+    builds after the helpers' chunks (it copies ``step`` itself)."""
     counts = []
     for helpers in (1, 0):
         env = _vector_env("vegym/Aircraft-v0", helpers)
@@ -409,6 +462,7 @@ def test_a_split_steps_info_reports_the_step_count_after_the_step_as_one_thread_
         action = np.zeros(env.action_space.shape, np.float32)
         counts.append([env.step(action)[4]["elapsed"][:3].tolist() for _ in range(3)])
         assert (env.unwrapped._split is not None) == (helpers == 1)
+        assert not env.unwrapped._info_overlaps
         env.close()
     assert counts[0] == counts[1] == [[1, 1, 1], [2, 2, 2], [3, 3, 3]]
 

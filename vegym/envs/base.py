@@ -529,6 +529,17 @@ def _disjoint(spans: list[tuple[int, int]]) -> bool:
     return all(stop <= next_start for (_, stop), (next_start, _) in itertools.pairwise(ordered))
 
 
+def _copies_state(info: Mapping[str, Any], updated_ids: set[int], copied_ids: set[int]) -> bool:
+    """Whether :meth:`VegymVectorEnv._vector_info` copies an array of ``info`` itself, reading it: (a view of) one of
+    the state arrays ``updated_ids`` that is not one of those whose copies a split step makes (``copied_ids``)."""
+    return any(
+        isinstance(value, np.ndarray)
+        and id(value) not in copied_ids
+        and (id(value) in updated_ids or id(value.base) in updated_ids)
+        for value in _leaves(info)
+    )
+
+
 def _leaves(tree: Mapping[str, Any]) -> Iterator[Any]:
     """The values of a nested dict, depth first."""
     for value in tree.values():
@@ -901,6 +912,8 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         """Which restarts the split runs too (:meth:`_restart_call_to_split`)."""
         self._chunk_rows = self._every
         """For each row, its index in its chunk of the split (:func:`_chunk_rows`)."""
+        self._info_overlaps = False
+        """Whether a split step builds its info while the helpers run their chunks (:meth:`_step_task`)."""
         self._load_flag = np.zeros(1, np.bool_)
         """``load`` of :func:`_clip_actions` in the steps (whether ``source`` holds the actions)."""
         self._unused_source: np.ndarray | None = None
@@ -1026,17 +1039,20 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         max_steps = self.max_episode_steps if self.max_episode_steps is not None else _NO_LIMIT
         reward, terminated = out["reward"], out["terminated"]
         end = (state["step"], resetting, max_steps, reward, terminated, active, truncated, autoreset)
+
+        def info_of(copies: Mapping[int, np.ndarray]) -> Info:
+            active.flags.writeable = False  # the one mask of every info entry
+            return self._vector_info(self.task.info(state, out), active, *self._state_ids(state), copies)
+
         if every_resets:  # the restart below observes every sub-env
             for name, value in out.items():
                 if name != "obs":
                     value.fill(0)
             _end_step(*end)
-            copies = {}
+            info = info_of({})
         else:
-            copies = self._step_task(state, a, out, source, end)
+            info = self._step_task(state, a, out, source, end, info_of)
         self._autoreset = autoreset  # only once the step has counted it: an interrupted step keeps the old flags
-        active.flags.writeable = False  # the one mask of every info entry
-        info = self._vector_info(self.task.info(state, out), active, *self._state_ids(state), copies)
         if len(rows):
             self._renew_episode_constants(every_row=every_resets)
         if every_resets:
@@ -1067,8 +1083,14 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         return actions.reshape(target.shape)
 
     def _step_task(
-        self, state: State, actions: np.ndarray, out: State, source: np.ndarray | None, end: tuple[Any, ...]
-    ) -> dict[int, np.ndarray]:
+        self,
+        state: State,
+        actions: np.ndarray,
+        out: State,
+        source: np.ndarray | None,
+        end: tuple[Any, ...],
+        info_of: Callable[[Mapping[int, np.ndarray]], Info],
+    ) -> Info:
         """The task's step of every sub-env (:meth:`Task.step`) between the conversion of the actions ``source``
         (checked float32 rows, :meth:`_checked_source`) into ``actions``, where given (else ``actions`` holds them),
         and the bookkeeping :func:`_end_step` of ``end``, its arguments. With two or more chunks of
@@ -1078,12 +1100,13 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         ``actions`` themselves are split by rows, the others passed whole; and each chunk copies its rows of the
         state arrays that the info reports (but ``step``, which the bookkeeping counts), for the info (each thread
         copies the rows it wrote), right after the kernel. The split's second call is the task's restart kernel
-        (:meth:`_restart_call_to_split`). Returns those copies by the ids of their state arrays (none where not
-        split)."""
+        (:meth:`_restart_call_to_split`). Returns the step's info, ``info_of`` those copies by the ids of their state
+        arrays (none where not split); a split step calls it while the helpers run their chunks where it reads none
+        of the rows they write (``self._info_overlaps``: it copies no state array itself), else after them."""
         if self._split_helpers < 1:  # then source is None
             self.task.step(state, actions, out)
             _end_step(*end)
-            return {}
+            return info_of({})
         load = self._load_flag
         load[0] = source is not None
         before = (load, source if source is not None else self._no_source(), actions)
@@ -1100,6 +1123,9 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             reported.discard(id(state["step"]))  # counted after the kernel: copied by _vector_info
             sources = [k for k, arg in enumerate(args) if id(arg) in reported]
             copies = tuple(np.empty_like(args[k]) for k in sources)
+            self._info_overlaps = not _copies_state(
+                self.task.info(state, out), self._state_ids(state)[0], {id(args[k]) for k in sources}
+            )
             batch = [id(arg) in rows for arg in args] + [True] * len(copies)
             self._chunk_rows = _chunk_rows(self.num_envs, self._split_helpers + 1)
             self._split_restarts, second = self._restart_call_to_split(state, out["obs"])
@@ -1117,9 +1143,12 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             _clip_actions(*before)
             kernel(*args)
             _end_step(*end)
-            return {}
+            return info_of({})
+        by_source = {id(args[k]): copy for k, copy in zip(split.copies, copies, strict=True)}
+        if self._info_overlaps:
+            return split(call, then=lambda: info_of(by_source))
         split(call)
-        return {id(args[k]): copy for k, copy in zip(split.copies, copies, strict=True)}
+        return info_of(by_source)
 
     def _no_source(self) -> np.ndarray:
         """The float32 rows that a split step's conversion is given, and skips, where this thread loaded the
@@ -1185,6 +1214,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         self.__dict__.update(state)
         self.__dict__.setdefault("_load_flag", np.zeros(1, np.bool_))  # pickled before the split loaded actions
         self.__dict__.setdefault("_unused_source", None)
+        self.__dict__.setdefault("_info_overlaps", False)
         if not self.closed:  # this machine's threads, not the original's
             self._split_helpers = _split_helpers(self.num_envs)
 

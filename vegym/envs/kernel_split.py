@@ -76,12 +76,13 @@ posted (``SPIN_S``)."""
 SPLIT_SETTLE_S = 2e-6 * MAX_NAP_US
 """Seconds after a change to running over threads not timed: twice the longest nap a helper may be in then."""
 
-_TICKET, _FINISHED, _FAILED, _STOP, _KIND = (8 * k for k in range(5))
+_TICKET, _FINISHED, _FAILED, _STOP, _KIND, _CUT = (8 * k for k in range(6))
 """Slots of the control array (int64), each in a 64-byte cache line of its own: the ticket ``job << 32 | chunk``,
 the next chunk of the current job to take; how many of its chunks are finished; whether a helper's kernel raised;
 whether the helpers are to stop (after the chunk they hold); which of the split's calls the current job runs (0 the
-first, 1 the second)."""
-_SLOTS = _KIND + 8
+first, 1 the second); the rows of the current job's first chunk, the others sharing the rest evenly (0: every chunk
+an even share)."""
+_SLOTS = _CUT + 8
 _CHUNK_MASK = (1 << 32) - 1
 _JOB_MASK = (1 << 31) - 1
 """Job numbers wrap around at 2**31."""
@@ -194,6 +195,7 @@ def _caller_side(
     naps: tuple[int, int, int],
     kind: int,
     solo: bool,
+    wait: bool,
     layout: str,
     batch: str,
 ) -> bool:
@@ -201,7 +203,9 @@ def _caller_side(
     raise NotImplementedError("only callable inside numba-compiled code")
 
 
-def _helper_side(table: np.ndarray, scalars: tuple[Any, ...], chunk: int, chunks: int, layout: str, batch: str) -> None:
+def _helper_side(
+    table: np.ndarray, scalars: tuple[Any, ...], chunk: int, chunks: int, cut: int, layout: str, batch: str
+) -> None:
     """Numba-only: a helper's run of one chunk (see the overload)."""
     raise NotImplementedError("only callable inside numba-compiled code")
 
@@ -249,15 +253,21 @@ def _chunk_body(calls: list[tuple[Any, list[int], list[tuple[int, int]]]], argum
     )
 
 
-_BOUNDS = "lo, hi = n * chunk // chunks, n * (chunk + 1) // chunks"
+_BOUNDS = (
+    "lo, hi = (n * chunk // chunks, n * (chunk + 1) // chunks) if cut == 0 else (0, cut) if chunk == 0 else "
+    "(cut + (n - cut) * (chunk - 1) // (chunks - 1), cut + (n - cut) * chunk // (chunks - 1))"
+)
+"""A chunk's rows ``lo:hi`` of ``n``: the first ``cut`` rows for the first chunk and even shares of the rest for the
+others, or even shares of all where ``cut`` is 0."""
 
 
 @overload(_caller_side)
-def _caller_side_impl(control, table, args, chunks, spin_rounds, naps, kind, solo, layout, batch):  # noqa: ANN001, ANN202
+def _caller_side_impl(control, table, args, chunks, spin_rounds, naps, kind, solo, wait, layout, batch):  # noqa: ANN001, ANN202
     """Write the arrays' addresses and shapes into ``table`` (``[address, *shape]`` per array), post a job of
     ``chunks`` chunks of the split's call ``kind`` (0 or 1), run the first, take the others until none is left,
     then wait for the helpers' chunks: ``spin_rounds`` rounds, then naps of ``naps[1]`` us (``usleep`` at address
-    ``naps[0]``) between looks. With ``solo``, run every chunk in this thread instead and post nothing. Returns
+    ``naps[0]``) between looks, unless not ``wait`` (then :func:`_finish` waits). With ``solo``, run every chunk in
+    this thread instead and post nothing. The chunks' rows as ``_BOUNDS`` says, by the ``_CUT`` slot. Returns
     whether a helper's kernel raised."""
     if not (isinstance(layout, types.StringLiteral) and isinstance(batch, types.StringLiteral)):
         return None
@@ -271,8 +281,9 @@ def _caller_side_impl(control, table, args, chunks, spin_rounds, naps, kind, sol
     chunk = _chunk_body(calls, lambda k: f"args[{k}][lo:hi]" if fields[k][2] else f"args[{k}]")
     first = next(k for k, (_, _, split) in enumerate(fields) if split)
     source = f"""
-def generated(control, table, args, chunks, spin_rounds, naps, kind, solo, layout, batch):
+def generated(control, table, args, chunks, spin_rounds, naps, kind, solo, wait, layout, batch):
     n = args[{first}].shape[0]
+    cut = control[{_CUT}]
     if solo:
         for chunk in range(chunks):
             {_BOUNDS}
@@ -295,27 +306,18 @@ def generated(control, table, args, chunks, spin_rounds, naps, kind, solo, layou
             {_BOUNDS}
             {chunk}
             _atomic_update(control, {_FINISHED}, 1, "add")
-    rounds = 0
-    while _load_acquire(control, {_FINISHED}) != chunks:
-        if _load_acquire(control, {_FAILED}) != 0:
-            return True
-        rounds += 1
-        if rounds < spin_rounds:
-            _pause()
-        else:  # the helper holding the chunk may need this core
-            _usleep(naps[0], naps[1])
-    return False
+    return _finish(control, chunks, spin_rounds, naps)[0] if wait else False
 """
     return _compile(
         source, [kernel for kernel, _, _ in calls], _store_release=_store_release, _load_acquire=_load_acquire,
-        _compare_exchange=_compare_exchange, _atomic_update=_atomic_update, _pause=_pause, _usleep=_usleep,
-        _copy=_copy,
+        _compare_exchange=_compare_exchange, _atomic_update=_atomic_update, _copy=_copy, _finish=_finish,
     )  # fmt: skip
 
 
 @overload(_helper_side)
-def _helper_side_impl(table, scalars, chunk, chunks, layout, batch):  # noqa: ANN001, ANN202
-    """Run chunk ``chunk`` of ``chunks`` on the arrays of ``table`` and ``scalars``."""
+def _helper_side_impl(table, scalars, chunk, chunks, cut, layout, batch):  # noqa: ANN001, ANN202
+    """Run chunk ``chunk`` of ``chunks`` (its rows as ``_BOUNDS`` says, by ``cut``) on the arrays of ``table`` and
+    ``scalars``."""
     if not (isinstance(layout, types.StringLiteral) and isinstance(batch, types.StringLiteral)):
         return None
     fields, calls = _fields(layout, batch)
@@ -335,7 +337,7 @@ def _helper_side_impl(table, scalars, chunk, chunks, layout, batch):  # noqa: AN
     first = next(k for k, (_, _, split) in enumerate(fields) if split)
     rows_at = sum(1 + ndim for _, ndim, _ in fields[:first] if ndim) + 1  # the first batch array's row count
     source = f"""
-def generated(table, scalars, chunk, chunks, layout, batch):
+def generated(table, scalars, chunk, chunks, cut, layout, batch):
     n = table[{rows_at}]
     {_BOUNDS}
     {"; ".join(f"a{k} = {array}" for k, array in enumerate(arrays))}
@@ -361,12 +363,30 @@ def _split_call(
     naps: tuple[int, int, int],
     kind: int,
     solo: bool,
+    wait: bool,
     layout: str,
     batch: str,
 ) -> bool:
     return _caller_side(
-        control, table, args, chunks, spin_rounds, naps, kind, solo, literally(layout), literally(batch)
+        control, table, args, chunks, spin_rounds, naps, kind, solo, wait, literally(layout), literally(batch)
     )
+
+
+@njit(cache=True, nogil=True)
+def _finish(control: np.ndarray, chunks: int, spin_rounds: int, naps: tuple[int, int, int]) -> tuple[bool, bool]:
+    """Wait for the helpers' chunks of the job posted (by a call that did not ``wait``), as the calling side waits:
+    whether a helper's kernel raised, and whether every chunk was done already."""
+    done = _load_acquire(control, _FINISHED) == chunks
+    rounds = 0
+    while _load_acquire(control, _FINISHED) != chunks:
+        if _load_acquire(control, _FAILED) != 0:
+            return True, done
+        rounds += 1
+        if rounds < spin_rounds:
+            _pause()
+        else:  # the helper holding the chunk may need this core
+            _usleep(naps[0], naps[1])
+    return False, done
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -409,11 +429,12 @@ def _serve(
         chunk = ticket & _CHUNK_MASK
         if chunk < chunks:
             if _compare_exchange(control, _TICKET, ticket, ticket + 1):  # the job's kind was stored before its ticket
+                cut = control[_CUT]
                 if control[_KIND] == 0:
-                    _helper_side(tables[0], scalars, chunk, chunks, literally(layout), literally(batch))
+                    _helper_side(tables[0], scalars, chunk, chunks, cut, literally(layout), literally(batch))
                 else:
                     _helper_side(
-                        tables[1], second_scalars, chunk, chunks, literally(second_layout), literally(second_batch)
+                        tables[1], second_scalars, chunk, chunks, cut, literally(second_layout), literally(second_batch)
                     )
                 _atomic_update(control, _FINISHED, 1, "add")
                 seen, idle, nap = ticket >> 32, 0, naps[1]
@@ -469,7 +490,7 @@ class _Job:
             _split_call,
             (
                 typeof(control), typeof(self.table), typeof(args), types.intp, types.intp, typeof(naps), types.intp,
-                types.boolean, types.literal(self.layout), types.literal(self.batch),
+                types.boolean, types.boolean, types.literal(self.layout), types.literal(self.batch),
             ),
         )  # fmt: skip
         if self.call is None:
@@ -616,6 +637,12 @@ class SplitKernel:
                     "writeable batch array of its dtype and shape"
                 )
         self.kernel, self.chunks, self.copies = kernel, helpers + 1, tuple(copies)
+        (rows_count,) = rows
+        self._cuts = (rows_count // (2 * self.chunks), 3 * rows_count // (2 * self.chunks), max(1, rows_count // 512))
+        """The fewest and most rows of the first job's first chunk, and the step by which :meth:`__call__` moves it."""
+        self.cut = rows_count // self.chunks
+        """Rows of the first job's first chunk, the calling thread's: an even share, until calls with ``then``
+        move it (:meth:`__call__`)."""
         self.pid = os.getpid()
         self.control = _aligned_zeros(_SLOTS)
         self.control[_TICKET] = self.chunks  # job 0, every chunk taken: nothing to do until the first call
@@ -675,26 +702,44 @@ class SplitKernel:
         of the same types and values, and this process (a forked child has none of its parent's helpers)."""
         return job < len(self.jobs) and self.jobs[job].fits(kernel, args) and self.pid == os.getpid()
 
-    def __call__(self, args: tuple[Any, ...], job: int = 0) -> None:
+    def __call__(self, args: tuple[Any, ...], job: int = 0, then: Callable[[], Any] | None = None) -> Any:
         """Its job ``job``'s calls over the chunks of ``args`` (which must :meth:`fit <fits>`); the kernels' results
-        are not kept. A kernel's error is raised here: from the calling thread's chunk at once (a helper may
+        are not kept. With ``then``, the calling thread calls it after its own chunks and before it waits for the
+        helpers' (it must not touch what they write), and returns its result; and after each such call of the first
+        job the first chunk gains ``self._cuts[2]`` rows where the calling thread waited, or loses as many where
+        the helpers were done first, within ``self._cuts[:2]``, so that its chunk and ``then`` take as long as a
+        helper's chunk. A kernel's error is raised here: from the calling thread's chunk at once (a helper may
         still be running its chunk then, and chunks that no thread had taken are not run), from a helper's once the
-        others are done; then the helpers stop, and
-        later calls run in the calling thread. Either way the call is incomplete, as after an error in one
-        thread."""
+        others are done; then the helpers stop, and later calls run in the calling thread. Either way the call is
+        incomplete, as after an error in one thread."""
         target = self.jobs[job]
         solo = self.chooser.choose(time.perf_counter()) if job == 0 else self.chooser.solo
+        control = self.control
+        control[_CUT] = self.cut if job == 0 else 0
         try:
             failed = target.call(
-                self.control, target.table, args, self.chunks, self._spin_rounds, self._naps, job, solo, target.layout,
-                target.batch,
+                control, target.table, args, self.chunks, self._spin_rounds, self._naps, job, solo, then is None,
+                target.layout, target.batch,
             )  # fmt: skip
         except Exception:  # the calling thread's chunk raised (a KeyboardInterrupt comes after the call returned)
             self.close()
             raise
+        if then is None or solo:
+            result = None if then is None else then()
+        else:
+            try:
+                result = then()
+            finally:  # the helpers' chunks are waited for whatever then() did
+                failed, done = _finish(control, self.chunks, self._spin_rounds, self._naps)
+                if failed:
+                    self.close()
+                elif job == 0:
+                    fewest, most, step = self._cuts
+                    self.cut = min(max(self.cut - step if done else self.cut + step, fewest), most)
         if failed:
             self.close()
             raise self.errors[0]
+        return result
 
 
 @njit(cache=True, nogil=True)
