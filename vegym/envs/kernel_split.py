@@ -3,17 +3,18 @@
 The calling thread writes the arrays' addresses and shapes into a table, posts a job, runs its first chunk and
 then takes any chunk left, one at a time, while the helpers take the others; it returns when every chunk is done.
 The first chunk is always the calling thread's, so that from step to step each thread finds its rows of the state
-in its own cache (where either could take it, 8,192 Aircraft envs stepped in 153-169 us, 151-162 us since). The
-other chunks are taken by an atomic compare-and-swap on one counter that also names the job, so a chunk runs once,
-and a helper that is late, napping or stopped only leaves more chunks to the caller: results never depend on the
-helpers (a helper that has taken a chunk is waited for, and one descheduled then delays the step). A helper is a
-compiled loop that never takes the GIL. Handing work to a sleeping thread took 60-130 us on the 2-core VM this was
-measured on, about half of an 8,192-env step, so a helper spins between jobs, for ``SPIN_S`` (0.2 ms, in rounds
-timed once), then naps in ``usleep`` calls that double from ``MIN_NAP_US`` to ``MAX_NAP_US``, which hand its core
-back; a job posted while it naps (the calling thread takes its chunks) starts the spin again. Where the calls go at
-least 15% faster in the calling thread alone than over the threads (on a host that shares the cores' time, say),
-they run alone, the helpers napping: :class:`ModeChooser` times both ways. Splitting needs POSIX ``usleep`` and
-numba's type fingerprints; without them kernels run unsplit.
+in its own cache (where either could take it, 8,192 Aircraft envs stepped in 153-169 us, 151-162 us since); a call
+with ``then`` runs it in the calling thread before the wait for the helpers, and sizes the first chunk to match
+(:meth:`SplitKernel.__call__`). The other chunks are taken by an atomic compare-and-swap on one counter that also
+names the job, so a chunk runs once, and a helper that is late, napping or stopped only leaves more chunks to the
+caller: results never depend on the helpers (a helper that has taken a chunk is waited for, and one descheduled
+then delays the step). A helper is a compiled loop that never takes the GIL. Handing work to a sleeping thread took
+60-130 us on the 2-core VM this was measured on, about half of an 8,192-env step, so a helper spins between jobs,
+for ``SPIN_S`` (0.2 ms, in rounds timed once), then naps in ``usleep`` calls that double from ``MIN_NAP_US`` to
+``MAX_NAP_US``, which hand its core back; a job posted while it naps (the calling thread takes its chunks) starts
+the spin again. Where the calls go at least 15% faster in the calling thread alone than over the threads (on a host
+that shares the cores' time, say), they run alone, the helpers napping: :class:`ModeChooser` times both ways.
+Splitting needs POSIX ``usleep`` and numba's type fingerprints; without them kernels run unsplit.
 """
 
 from __future__ import annotations
