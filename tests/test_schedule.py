@@ -1,4 +1,4 @@
-"""The demand schedule (vegym.envs.schedule) and the after-step kernels that hand out its demands."""
+"""The demand schedule (vegym.envs.schedule) and the step kernels that hand out its demands as their last work."""
 
 from __future__ import annotations
 
