@@ -1119,13 +1119,12 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             if split is not None:
                 split.close()
             rows = {id(array) for array in (*state.values(), *out.values(), actions)}
-            reported = self._state_ids(state)[0] & {id(value) for value in _leaves(self.task.info(state, out))}
+            info, updated = self.task.info(state, out), self._state_ids(state)[0]
+            reported = updated & {id(value) for value in _leaves(info)}
             reported.discard(id(state["step"]))  # counted after the kernel: copied by _vector_info
             sources = [k for k, arg in enumerate(args) if id(arg) in reported]
             copies = tuple(np.empty_like(args[k]) for k in sources)
-            self._info_overlaps = not _copies_state(
-                self.task.info(state, out), self._state_ids(state)[0], {id(args[k]) for k in sources}
-            )
+            self._info_overlaps = not _copies_state(info, updated, {id(args[k]) for k in sources})
             batch = [id(arg) in rows for arg in args] + [True] * len(copies)
             self._chunk_rows = _chunk_rows(self.num_envs, self._split_helpers + 1)
             self._split_restarts, second = self._restart_call_to_split(state, out["obs"])
