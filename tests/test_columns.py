@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from numba import njit
 
-from vegym.physics.columns import SMALL_SCRATCH, pairwise_sum, scratch
+from vegym.physics.columns import SMALL_SCRATCH, WIDE_VECTORS, pairwise_sum, prefer_wide_vectors, scratch
 
 
 @njit
@@ -36,3 +36,29 @@ def test_pairwise_sum_of_eight_values_uses_numpys_eight_accumulators() -> None:
     values = np.array([1.0] + [1e-16] * 7)
     assert np.sum(values) != sum(values.tolist())  # the two orders differ on these values
     assert pairwise_sum(values) == np.sum(values)
+
+
+def _quotients(numerators: np.ndarray, denominators: np.ndarray) -> np.ndarray:
+    """A loop that compiles to SIMD code, with divisions, square roots and sines."""
+    out = np.empty_like(numerators)
+    for i in range(len(out)):
+        out[i] = np.sqrt(numerators[i] / denominators[i]) + np.sin(numerators[i])
+    return out
+
+
+_inlined_quotients = njit(inline="always")(_quotients)
+
+
+@njit
+def _wide_quotients(numerators: np.ndarray, denominators: np.ndarray) -> np.ndarray:
+    prefer_wide_vectors()
+    return _inlined_quotients(numerators, denominators)
+
+
+def test_a_kernel_that_prefers_wide_vectors_is_marked_so_and_computes_the_same_bits() -> None:
+    plain = njit(_quotients)
+    numerators, denominators = np.random.default_rng(0).normal(size=(2, 1001))
+    np.testing.assert_array_equal(_wide_quotients(numerators, denominators), plain(numerators, denominators))
+    (wide_ir,), (plain_ir,) = _wide_quotients.inspect_llvm().values(), plain.inspect_llvm().values()
+    assert WIDE_VECTORS in wide_ir
+    assert WIDE_VECTORS not in plain_ir

@@ -16,6 +16,7 @@ from vegym.envs.schedule import ScheduledParams
 from vegym.params import Params, param
 from vegym.physics import aircraft, vmath
 from vegym.physics.aircraft import STANDARD_RATE, AircraftParams, AircraftState
+from vegym.physics.columns import prefer_wide_vectors
 
 _SETUP_STREAM = 1
 _DEMAND_STREAM = 2
@@ -163,6 +164,7 @@ def _step_kernel(
     not); no pass makes more than 16 such strided accesses, and the scratch arrays are separate allocations
     (rows of one array would overlap as far as the compiler can tell): either keeps a loop scalar.
     """
+    prefer_wide_vectors()
     n = len(action)
     high = (c[0], c[2], c[4])  # A_acc, V_cli, M: the upper command limits and the scales of positive actions
     envelope = (c[13], c[14], c[17], c[18], c[19], c[20])  # aircraft.envelope: speeds, floor, ceiling, wind

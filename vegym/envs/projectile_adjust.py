@@ -15,7 +15,7 @@ from vegym.envs.projectile import AZIMUTH_LIMIT, ELEVATION_LIMIT, ProjectileEnvP
 from vegym.envs.projectile import SHOT_COLUMNS as PROJECTILE_SHOT_COLUMNS
 from vegym.params import param
 from vegym.physics import projectile, vmath
-from vegym.physics.columns import scratch
+from vegym.physics.columns import prefer_wide_vectors, scratch
 
 SHOT_FIELDS = 6
 """Observation entries per remembered shot: fired flag, miss along and across, and the shot's three actions."""
@@ -97,6 +97,7 @@ def _step_kernel(
 
     Written as passes over the batch: the shot, the miss in the target frame (SIMD code), the memory's shift
     (the batch loop innermost), the newest entry and the observation."""
+    prefer_wide_vectors()
     max_shots, memory, n = c[2], misses.shape[1], len(action)
     _shoot(action, launch, target, wind, bearing, landing, shot_c, shot, success, reward)
     along, across = scratch(n), scratch(n)
