@@ -1042,7 +1042,10 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
 
         def info_of(copies: Mapping[int, np.ndarray]) -> Info:
             active.flags.writeable = False  # the one mask of every info entry
-            return self._vector_info(self.task.info(state, out), active, *self._state_ids(state), copies)
+            info = self._vector_info(self.task.info(state, out), active, *self._state_ids(state), copies)
+            if len(rows):  # after the info took its views of them; the step kernel only reads them
+                self._renew_episode_constants(every_row=every_resets)
+            return info
 
         if every_resets:  # the restart below observes every sub-env
             for name, value in out.items():
@@ -1053,8 +1056,6 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         else:
             info = self._step_task(state, a, out, source, end, info_of)
         self._autoreset = autoreset  # only once the step has counted it: an interrupted step keeps the old flags
-        if len(rows):
-            self._renew_episode_constants(every_row=every_resets)
         if every_resets:
             self._restart_every_row(state, out["obs"])
         elif len(rows):
