@@ -467,6 +467,29 @@ def test_a_split_steps_info_reports_the_step_count_after_the_step_as_one_thread_
     assert counts[0] == counts[1] == [[1, 1, 1], [2, 2, 2], [3, 3, 3]]
 
 
+@pytest.mark.parametrize("helpers", [1, 0], ids=["split", "one thread"])
+def test_a_steps_info_shows_the_episode_constants_it_stepped_with_though_rows_restart_after_it(helpers: int) -> None:
+    """The step renews the episode constants right after its info took views of them (a split step while the
+    helper runs its chunk); the restarts then write into the new arrays, and the info keeps the old ones, the
+    restarted rows' too."""
+    env = _vector_env("vegym/ProjectileAdjust-v0", helpers)
+    constants = env.unwrapped.task.episode_constants
+    env.reset(seed=1)
+    actions = np.random.default_rng(1).uniform(-1, 1, (6, *env.action_space.shape)).astype(np.float32)
+    restarts = 0
+    for action in actions:
+        before = {name: env.unwrapped.state[name].copy() for name in constants}
+        info = env.step(action)[4]
+        restarted = ~info["_target"]  # the rows that ended on the step before start a new episode now
+        restarts += restarted.sum()
+        for name in constants:
+            np.testing.assert_array_equal(info[name], before[name])
+        assert np.all(np.any(env.unwrapped.state["target"][restarted] != before["target"][restarted], axis=1))
+    assert restarts > SPLIT_ENVS  # every episode ends within max_shots = 3 steps
+    assert env.unwrapped._info_overlaps == (helpers == 1)
+    env.close()
+
+
 @pytest.mark.parametrize("zero_at", [0, -1])
 def test_a_kernel_error_in_any_chunk_is_raised_and_stops_the_helpers(zero_at: int) -> None:
     before = len(_helpers())
