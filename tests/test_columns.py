@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import gymnasium as gym
+import llvmlite.binding as llvm
 import numpy as np
 import pytest
 from numba import njit
 
+import vegym  # noqa: F401  (registers the envs)
 from vegym.physics.columns import SMALL_SCRATCH, WIDE_VECTORS, pairwise_sum, prefer_wide_vectors, scratch
 
 
@@ -39,26 +42,50 @@ def test_pairwise_sum_of_eight_values_uses_numpys_eight_accumulators() -> None:
 
 
 def _quotients(numerators: np.ndarray, denominators: np.ndarray) -> np.ndarray:
-    """A loop that compiles to SIMD code, with divisions, square roots and sines."""
+    """A loop that compiles to SIMD code (numpy's error model: no division-by-zero check) of divisions and square
+    roots."""
     out = np.empty_like(numerators)
     for i in range(len(out)):
-        out[i] = np.sqrt(numerators[i] / denominators[i]) + np.sin(numerators[i])
+        out[i] = np.sqrt(numerators[i] / denominators[i]) + numerators[i]
     return out
 
 
-_inlined_quotients = njit(inline="always")(_quotients)
+_inlined_quotients = njit(inline="always", error_model="numpy")(_quotients)
 
 
-@njit
+@njit(error_model="numpy")
 def _wide_quotients(numerators: np.ndarray, denominators: np.ndarray) -> np.ndarray:
     prefer_wide_vectors()
     return _inlined_quotients(numerators, denominators)
 
 
+def _has_avx512() -> bool:
+    return "+avx512f" in llvm.get_host_cpu_features().flatten().split(",")
+
+
 def test_a_kernel_that_prefers_wide_vectors_is_marked_so_and_computes_the_same_bits() -> None:
-    plain = njit(_quotients)
-    numerators, denominators = np.random.default_rng(0).normal(size=(2, 1001))
+    """Marked through a helper it inlines; on an AVX-512 CPU its loop is compiled to 512-bit vectors (zmm
+    registers), the unmarked loop's to narrower ones, and both give the same bits."""
+    plain = njit(error_model="numpy")(_quotients)
+    numerators, denominators = np.random.default_rng(0).normal(size=(2, 1001)) ** 2
     np.testing.assert_array_equal(_wide_quotients(numerators, denominators), plain(numerators, denominators))
     (wide_ir,), (plain_ir,) = _wide_quotients.inspect_llvm().values(), plain.inspect_llvm().values()
     assert WIDE_VECTORS in wide_ir
     assert WIDE_VECTORS not in plain_ir
+    (wide_asm,), (plain_asm,) = _wide_quotients.inspect_asm().values(), plain.inspect_asm().values()
+    assert "zmm" not in plain_asm
+    assert ("zmm" in wide_asm) == _has_avx512()
+
+
+@pytest.mark.parametrize("env_id", ["vegym/Aircraft-v0", "vegym/ProjectileAdjust-v0"])
+def test_the_step_kernels_measured_faster_so_prefer_wide_vectors(env_id: str) -> None:
+    """Their kernels compiled afresh (numba's cache keeps no IR) carry the attribute."""
+    env = gym.make_vec(env_id, num_envs=2, vectorization_mode="vector_entry_point")
+    env.reset(seed=0)
+    task, state = env.unwrapped.task, env.unwrapped.state
+    kernel, args = task.step_call(state, np.zeros((2, *env.single_action_space.shape)), task.outputs(2))
+    options = {name: value for name, value in kernel.targetoptions.items() if name not in ("cache", "nopython")}
+    fresh = njit(**options)(kernel.py_func)
+    fresh.compile(tuple(fresh.typeof_pyval(arg) for arg in args))
+    (ir,) = fresh.inspect_llvm().values()
+    assert WIDE_VECTORS in ir

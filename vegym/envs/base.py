@@ -1262,8 +1262,8 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
     def _renew_episode_constants(self, every_row: bool) -> None:
         """New arrays for the task's episode constants, before episodes start: earlier infos hold the old ones.
         Copies, or uninitialised when every row is about to be started. A step makes them right after its info took
-        its views of the old ones, in a split step while the helpers may still run their chunks (step kernels only
-        read the constants)."""
+        its views of the old ones: in a split step whose info overlaps the helpers' chunks (``_info_overlaps``)
+        while they may still run (step kernels only read the constants)."""
         state = self.state
         assert state is not None
         for name in self.task.episode_constants:

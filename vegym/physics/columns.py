@@ -78,10 +78,13 @@ WIDE_VECTORS = '"prefer-vector-width"="512"'
 @intrinsic
 def prefer_wide_vectors(typingctx):  # noqa: ANN001, ANN202 (numba's intrinsic protocol)
     """Have the compiler write the calling kernel's SIMD loops in 512-bit vectors where the CPU has them (AVX-512):
-    LLVM's x86 backend otherwise keeps to 256-bit vectors on such CPUs. Results are the same, bit for bit (the same
-    operations on each element); only the speed changes, and not always for the better (SteerableWheel's kernel
-    stepped 2% slower, Thread's 5%), so kernels call it where it was measured faster. No effect on other CPUs, nor
-    in a helper called without inlining (the attribute is its caller's)."""
+    LLVM's x86 backend otherwise keeps to 256-bit vectors on such CPUs. Results are the same, bit for bit, for loops
+    of arithmetic, square roots and :mod:`vegym.physics.vmath`'s functions (the same operations on each element; a
+    libm function that numba vectorises through Intel's SVML, where installed, may round otherwise at another
+    width); only the speed changes, and not always for the better (SteerableWheel's kernel stepped 2% slower,
+    Thread's 5%), so kernels call it where it was measured faster. It marks the function it is called in, and every
+    function that inlines that one (``inline="always"``), not the helpers that function calls without inlining. No
+    effect on other CPUs."""
 
     def codegen(context, builder, signature, args):  # noqa: ANN001, ANN202
         attributes = builder.function.attributes
