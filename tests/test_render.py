@@ -457,7 +457,7 @@ def test_the_bouncing_ball_is_drawn_to_the_scale_of_the_height_axis(monkeypatch:
     env = gym.make("vegym/BouncingBall-v0", render_mode="rgb_array", radius=0.5, target_min=0.6)
     env.reset(seed=0)
     for _ in range(3):
-        env.step(env.action_space.sample())
+        env.step(np.ones(1, np.float32))  # full restitution: never at rest (an unseeded sample could end the episode)
         dots.clear()
         env.render()
         panel, pixels = dots[-1]  # the ball, drawn last
