@@ -65,15 +65,15 @@ def _has_avx512() -> bool:
 
 def test_a_kernel_that_prefers_wide_vectors_is_marked_so_and_computes_the_same_bits() -> None:
     """Marked through a helper it inlines; on an AVX-512 CPU its loop is compiled to 512-bit vectors (zmm
-    registers), the unmarked loop's to narrower ones, and both give the same bits."""
+    registers; the unmarked one's to 256-bit vectors where LLVM tunes the CPU so, as on this project's machines),
+    and it gives the unmarked loop's bits."""
     plain = njit(error_model="numpy")(_quotients)
     numerators, denominators = np.random.default_rng(0).normal(size=(2, 1001)) ** 2
     np.testing.assert_array_equal(_wide_quotients(numerators, denominators), plain(numerators, denominators))
     (wide_ir,), (plain_ir,) = _wide_quotients.inspect_llvm().values(), plain.inspect_llvm().values()
     assert WIDE_VECTORS in wide_ir
     assert WIDE_VECTORS not in plain_ir
-    (wide_asm,), (plain_asm,) = _wide_quotients.inspect_asm().values(), plain.inspect_asm().values()
-    assert "zmm" not in plain_asm
+    (wide_asm,) = _wide_quotients.inspect_asm().values()
     assert ("zmm" in wide_asm) == _has_avx512()
 
 

@@ -1,4 +1,5 @@
-"""Array arguments prepared for the scalar numba kernels of the physics modules, and the kernels' scratch space."""
+"""Array arguments prepared for the scalar numba kernels of the physics modules, the kernels' scratch space and
+the vector width they ask for."""
 
 from __future__ import annotations
 
