@@ -176,9 +176,13 @@ thread delays: 0.5 s proved too short on a loaded machine."""
 
 
 @contextlib.contextmanager
-def interrupts_handled(handler: Callable[[int, Any], None]) -> Iterator[None]:
+def interrupts_handled(
+    handler: Callable[[int, Any], None], leaving: Callable[[Any], Any] | None = None
+) -> Iterator[None]:
     """``handler`` for the :data:`INTERRUPTS` until the block ends, the previous handlers after; in the main thread
-    only, where Python runs signal handlers (elsewhere nothing changes)."""
+    only, where Python runs signal handlers (elsewhere nothing changes). ``leaving``, if given, takes a previous
+    handler and gives the one that replaces ``handler`` as the block ends, in one change: a signal never meets the
+    previous handler in between."""
     if threading.current_thread() is not threading.main_thread():
         yield
         return
@@ -187,7 +191,8 @@ def interrupts_handled(handler: Callable[[int, Any], None]) -> Iterator[None]:
         yield
     finally:
         for signum, before in previous.items():
-            signal.signal(signum, signal.SIG_DFL if before is None else before)
+            before = signal.SIG_DFL if before is None else before
+            signal.signal(signum, before if leaving is None else leaving(before))
 
 
 def raise_keyboard_interrupt(signum: int, frame: Any) -> None:
@@ -196,22 +201,17 @@ def raise_keyboard_interrupt(signum: int, frame: Any) -> None:
     raise KeyboardInterrupt
 
 
-def _ignore_repeats_until(deadline: float) -> None:
-    """Handlers for the :data:`INTERRUPTS` that ignore those that come before ``deadline`` (``time.monotonic``) and
-    hand a later one back to the handler they replaced, which then handles it; in the main thread only."""
-    if threading.current_thread() is not threading.main_thread():
-        return
-    replaced = {signum: signal.getsignal(signum) for signum in INTERRUPTS}
+def _ignoring_repeats_until(deadline: float, before: Any) -> Callable[[int, Any], None]:
+    """A handler for the :data:`INTERRUPTS` that ignores those that come before ``deadline`` (``time.monotonic``)
+    and hands a later one back to ``before``, the handler it replaces, which then handles it."""
 
     def ignore_or_hand_back(signum: int, frame: Any) -> None:
         if time.monotonic() <= deadline:
             return
-        before = replaced[signum]
-        signal.signal(signum, signal.SIG_DFL if before is None else before)
+        signal.signal(signum, before)
         signal.raise_signal(signum)
 
-    for signum in INTERRUPTS:
-        signal.signal(signum, ignore_or_hand_back)
+    return ignore_or_hand_back
 
 
 class StopOnInterrupt(BaseCallback):
@@ -233,12 +233,15 @@ class StopOnInterrupt(BaseCallback):
         """Catch the interrupts until the block ends: around the training and the saves after it, so that an
         interrupt never cuts a save short unasked. With ``exiting``, after an interrupt, repeats that come after
         the block are ignored until ``REPEAT_WINDOW_S`` after it; later ones go to the handlers from before."""
-        try:
-            with interrupts_handled(self._handle):
-                yield
-        finally:
-            if self._exiting and self._first_at is not None:
-                _ignore_repeats_until(self._first_at + REPEAT_WINDOW_S)
+        with interrupts_handled(self._handle, self._after_block):
+            yield
+
+    def _after_block(self, before: Any) -> Any:
+        """The handler that replaces :meth:`_handle` as the block ends: ``before``, or with ``exiting`` after an
+        interrupt, one that ignores repeats until ``REPEAT_WINDOW_S`` after it, then hands back to ``before``."""
+        if self._exiting and self._first_at is not None:
+            return _ignoring_repeats_until(self._first_at + REPEAT_WINDOW_S, before)
+        return before
 
     def _handle(self, signum: int, frame: Any) -> None:
         now = time.monotonic()
