@@ -299,17 +299,27 @@ def _end_step(
 
 @njit(cache=True, nogil=True)
 def _rows_of(mask: np.ndarray) -> np.ndarray:
-    """The rows (int indices, ascending) where ``mask`` (bool) is true."""
-    count = 0
-    for i in range(len(mask)):
-        count += mask[i]
-    rows = np.empty(count + 1, np.intp)
-    if count:
-        j = 0
-        for i in range(len(mask)):  # branch-free: every row is written, the next one overwrites it if not in mask
-            rows[j] = i
-            j += mask[i]
-    return rows[:count]
+    """The rows (int indices, ascending) where ``mask`` (bool, C-contiguous) is true. It reads the mask eight rows
+    (a word) at a time and looks into the words with a row set only: a step ends few episodes (1.1 us for 30 of
+    8,192 rows, where a pass over every row took 3.1)."""
+    n = len(mask)
+    whole = n - n % 8
+    words = mask[:whole].view(np.uint64)
+    flagged = 0
+    for w in range(len(words)):
+        flagged += words[w] != 0
+    rows = np.empty(8 * flagged + n - whole, np.intp)
+    j = 0
+    if flagged:
+        for w in range(len(words)):
+            if words[w] != 0:
+                for i in range(8 * w, 8 * w + 8):  # branch-free: the next row overwrites it if not in mask
+                    rows[j] = i
+                    j += mask[i]
+    for i in range(whole, n):
+        rows[j] = i
+        j += mask[i]
+    return rows[:j]
 
 
 def action_shapes(n: int, dim: int) -> frozenset[tuple[int, ...]]:

@@ -212,6 +212,7 @@ def _observe(
     distance and bearing, then speed and progress."""
     max_speed, diagonal = c[0], c[12]
     n, n_waypoints = len(index), waypoints.shape[1]
+    per_diagonal, per_max_speed, per_waypoint = 1.0 / diagonal, 1.0 / max_speed, 1.0 / n_waypoints
     xz, out = position.reshape(-1), obs.reshape(-1)
     width = OBS_PER_WAYPOINT * SHOWN_WAYPOINTS + 2
     sines, cosines, shown_x, shown_z = scratch(n), scratch(n), scratch(n), scratch(n)
@@ -223,13 +224,14 @@ def _observe(
             dx, dz = shown_x[i] - xz[2 * i], shown_z[i] - xz[2 * i + 1]
             ahead, leftward = dx * sines[i] + dz * cosines[i], dx * cosines[i] - dz * sines[i]
             distance = math.sqrt(ahead * ahead + leftward * leftward)
+            per_distance = 1.0 / distance  # one division, where three were slower
             column = width * i + OBS_PER_WAYPOINT * j
-            out[column] = min(distance / diagonal, 1.0)
-            out[column + 1] = min(max(leftward / distance, -1.0), 1.0) if distance > 0.0 else 0.0
-            out[column + 2] = min(max(ahead / distance, -1.0), 1.0) if distance > 0.0 else 1.0
+            out[column] = min(distance * per_diagonal, 1.0)
+            out[column + 1] = min(max(leftward * per_distance, -1.0), 1.0) if distance > 0.0 else 0.0
+            out[column + 2] = min(max(ahead * per_distance, -1.0), 1.0) if distance > 0.0 else 1.0
     for i in range(n):
-        out[width * i + width - 2] = speed[i] / max_speed
-        out[width * i + width - 1] = index[i] / n_waypoints
+        out[width * i + width - 2] = speed[i] * per_max_speed
+        out[width * i + width - 1] = index[i] * per_waypoint
 
 
 @njit(cache=True, nogil=True, inline="always")
