@@ -260,18 +260,6 @@ def test_an_interrupted_vector_step_keeps_the_autoreset_flags_of_the_step_before
     assert_same(env.step(action), reference.step(action))
 
 
-@pytest.mark.parametrize("n", [0, 1, 7, 8, 9, 23, 4096, 8195])
-@pytest.mark.parametrize("share", [0.0, 0.004, 0.3, 1.0])
-def test_the_rows_a_vector_step_restarts_are_the_set_flags_in_ascending_order(n: int, share: float) -> None:
-    """The rows the autoreset flags name, read a word of eight flags at a time: a row set in a word's first or last
-    place, in the rows past the last whole word, and masks of every row or none."""
-    flags = np.random.default_rng(n).random(n) < share
-    flags[[k for k in (0, 7, 8, n - 1) if 0 <= k < n and share > 0.0]] = True
-    rows = base._rows_of(flags)
-    assert rows.dtype == np.intp
-    np.testing.assert_array_equal(rows, np.flatnonzero(flags))
-
-
 @pytest.mark.parametrize("env_id", ENV_IDS)
 def test_observations_stay_finite_and_inside_the_space(env_id: str) -> None:
     env = gym.make_vec(env_id, num_envs=256, vectorization_mode="vector_entry_point")

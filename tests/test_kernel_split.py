@@ -359,7 +359,7 @@ def test_each_chunk_makes_the_before_call_then_the_kernel_then_the_after_call(
         (_add, (source, 1.0, args[0]), [True, False, True]),
         (_add, (args[3], 0.5, last), [True, False, True]),
     )
-    split = SplitKernel(_divide, args, [True, True, False, True], 1, before=before, after=after)
+    split = SplitKernel(_divide, args, [True, True, False, True], 1, before=before, after=[after])
     call = (*before[1], *args, *after[1])
     assert split.fits(_divide, call) and not split.fits(_divide, args)
     args[0][:] = -1
@@ -367,6 +367,48 @@ def test_each_chunk_makes_the_before_call_then_the_kernel_then_the_after_call(
     expected = _divide_arguments()
     _divide(*expected)
     np.testing.assert_array_equal(last, expected[3] + 0.5)
+    assert (_posted_jobs(split) == 0) == alone
+    split.close()
+
+
+@pytest.mark.parametrize("n", [0, 1, 7, 8, 9, 23, 4096, 8195])
+@pytest.mark.parametrize("share", [0.0, 0.004, 0.3, 1.0])
+def test_flagged_rows_are_the_set_flags_in_ascending_order(n: int, share: float) -> None:
+    """Read a word of eight flags at a time: a row set in a word's first or last place, in the rows past the last
+    whole word, and masks of every row or none."""
+    flags = np.random.default_rng(n).random(n) < share
+    flags[[k for k in (0, 7, 8, n - 1) if 0 <= k < n and share > 0.0]] = True
+    rows = kernel_split.flagged_rows(flags)
+    assert rows.dtype == np.intp
+    np.testing.assert_array_equal(rows, np.flatnonzero(flags))
+
+
+@njit(cache=True, nogil=True)
+def _copy_rows(rows: np.ndarray, values: np.ndarray, out: np.ndarray) -> None:
+    """``out[rows] = values[rows]``."""
+    for r in rows:
+        out[r] = values[r]
+
+
+@pytest.mark.parametrize("alone", [False, True], ids=["over threads", "alone"])
+@pytest.mark.parametrize("helpers", [1, 3])
+def test_a_flagged_argument_reaches_the_kernel_as_the_indices_of_its_chunks_set_rows(
+    helpers: int, alone: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Each chunk passes the rows set in its part of the flags, as indices into its parts of the other batch
+    arrays: every flagged row (in each chunk, the first and last rows of the batch among them) and only those is
+    written, from its own row."""
+    if alone:
+        _run_alone(monkeypatch)
+    args = _divide_arguments()
+    n = len(args[0])
+    flags = np.random.default_rng(1).random(n) < 0.01
+    flags[[0, n // 2, n - 1]] = True
+    rows, out = np.arange(n, dtype=np.float64), np.full(n, -1.0)
+    after = (_copy_rows, (flags, rows, out), [kernel_split.FLAGGED, True, True])
+    split = SplitKernel(_divide, args, [True, True, False, True], helpers, after=[after])
+    split((*args, *after[1]))
+    np.testing.assert_array_equal(out, np.where(flags, rows, -1.0))
     assert (_posted_jobs(split) == 0) == alone
     split.close()
 

@@ -35,7 +35,7 @@ from numba import njit
 
 from vegym import rng
 from vegym.envs.kernel_call import bind_kernel
-from vegym.envs.kernel_split import SPLIT_MIN_ROWS, SplitKernel
+from vegym.envs.kernel_split import FLAGGED, SPLIT_MIN_ROWS, SplitKernel, flagged_rows
 from vegym.params import Params, with_arguments
 
 P = TypeVar("P", bound=Params)
@@ -155,7 +155,10 @@ class Task(abc.ABC, Generic[P]):
         (:meth:`VegymVectorEnv._restart_call_to_split`): for fewer rows than the batch, over parts of ``rows``
         (``SPLIT_RESTART_ROWS`` or more), passing the other arguments whole, so the kernel must read and write the
         rows ``rows`` of the state and of ``obs`` only (and the task's constants), and one that observes every row
-        returns None there (Projectile's); for every row, over chunks of rows as :meth:`step_call`'s."""
+        returns None there (Projectile's); for every row, over chunks of rows as :meth:`step_call`'s. For a task
+        without episode constants, each chunk of a split step runs it on its own rows after its step, given the
+        chunk's rows of the state, of ``obs`` and of the keys, and ``rows`` within the chunk (the call is made with
+        the bool autoreset flags in place of ``rows``: :meth:`VegymVectorEnv._split_task`)."""
         return None
 
     @abc.abstractmethod
@@ -295,31 +298,6 @@ def _end_step(
         ended = terminated[i] & a
         cut = a & (counted >= max_steps)
         terminated[i], truncated[i], autoreset[i] = ended, cut, ended | cut
-
-
-@njit(cache=True, nogil=True)
-def _rows_of(mask: np.ndarray) -> np.ndarray:
-    """The rows (int indices, ascending) where ``mask`` (bool, C-contiguous) is true. It reads the mask eight rows
-    (a word) at a time and looks into the words with a row set only: a step ends few episodes (1.1 us for 30 of
-    8,192 rows, where a pass over every row took 3.1)."""
-    n = len(mask)
-    whole = n - n % 8
-    words = mask[:whole].view(np.uint64)
-    flagged = 0
-    for w in range(len(words)):
-        flagged += words[w] != 0
-    rows = np.empty(8 * flagged + n - whole, np.intp)
-    j = 0
-    if flagged:
-        for w in range(len(words)):
-            if words[w] != 0:
-                for i in range(8 * w, 8 * w + 8):  # branch-free: the next row overwrites it if not in mask
-                    rows[j] = i
-                    j += mask[i]
-    for i in range(whole, n):
-        rows[j] = i
-        j += mask[i]
-    return rows[:j]
 
 
 def action_shapes(n: int, dim: int) -> frozenset[tuple[int, ...]]:
@@ -924,6 +902,9 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         """For each row, its index in its chunk of the split (:func:`_chunk_rows`)."""
         self._info_overlaps = False
         """Whether a split step builds its info while the helpers run their chunks (:meth:`_step_task`)."""
+        self._chunk_restarts = False
+        """Whether each chunk of a split step restarts its rows of the sub-envs that start an episode
+        (:meth:`_split_task`)."""
         self._load_flag = np.zeros(1, np.bool_)
         """``load`` of :func:`_clip_actions` in the steps (whether ``source`` holds the actions)."""
         self._unused_source: np.ndarray | None = None
@@ -1043,8 +1024,8 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         n = self.num_envs
         out = self.task.outputs(n)
         resetting = self._autoreset
-        rows = _rows_of(resetting)
-        every_resets = len(rows) == n
+        restarts = int(np.count_nonzero(resetting))
+        every_resets = restarts == n
         active, truncated, autoreset = np.empty(n, np.bool_), np.empty(n, np.bool_), np.empty(n, np.bool_)
         max_steps = self.max_episode_steps if self.max_episode_steps is not None else _NO_LIMIT
         reward, terminated = out["reward"], out["terminated"]
@@ -1053,7 +1034,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         def info_of(copies: Mapping[int, np.ndarray]) -> Info:
             active.flags.writeable = False  # the one mask of every info entry
             info = self._vector_info(self.task.info(state, out), active, *self._state_ids(state), copies)
-            if len(rows):  # after the info took its views of them; the step kernel only reads them
+            if restarts:  # after the info took its views of them; the step kernel only reads them
                 self._renew_episode_constants(every_row=every_resets)
             return info
 
@@ -1062,16 +1043,16 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
                 if name != "obs":
                     value.fill(0)
             _end_step(*end)
-            info = info_of({})
+            info, restarted = info_of({}), False
         else:
-            info = self._step_task(state, a, out, source, end, info_of)
+            info, restarted = self._step_task(state, a, out, source, end, info_of, resetting)
         self._autoreset = autoreset  # only once the step has counted it: an interrupted step keeps the old flags
         if every_resets:
             self._restart_every_row(state, out["obs"])
-        elif len(rows):
-            self._restart_rows(state, rows, out["obs"])
+        elif restarts and not restarted:
+            self._restart_rows(state, flagged_rows(resetting), out["obs"])
         if self.render_mode is not None:
-            self._record_renderers(rows, info)
+            self._record_renderers(flagged_rows(resetting), info)
         return out["obs"], reward, terminated, truncated, info
 
     def _checked_source(self, actions: Any) -> np.ndarray | None:
@@ -1101,7 +1082,8 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         source: np.ndarray | None,
         end: tuple[Any, ...],
         info_of: Callable[[Mapping[int, np.ndarray]], Info],
-    ) -> Info:
+        resetting: np.ndarray,
+    ) -> tuple[Info, bool]:
         """The task's step of every sub-env (:meth:`Task.step`) between the conversion of the actions ``source``
         (checked float32 rows, :meth:`_checked_source`) into ``actions``, where given (else ``actions`` holds them),
         and the bookkeeping :func:`_end_step` of ``end``, its arguments. With two or more chunks of
@@ -1110,14 +1092,17 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         thread), where the kernel can be split: its arguments that are the arrays of ``state``, ``out`` and
         ``actions`` themselves are split by rows, the others passed whole; and each chunk copies its rows of the
         state arrays that the info reports (but ``step``, which the bookkeeping counts), for the info (each thread
-        copies the rows it wrote), right after the kernel. The split's second call is the task's restart kernel
-        (:meth:`_restart_call_to_split`). Returns the step's info, ``info_of`` those copies by the ids of their state
-        arrays (none where not split); a split step calls it while the helpers run their chunks where it reads none
-        of the rows they write (``self._info_overlaps``: it copies no state array itself), else after them."""
+        copies the rows it wrote), right after the kernel. Each chunk then also restarts its rows of the sub-envs
+        ``resetting`` (bool), by the task's restart kernel, where ``self._chunk_restarts`` (:meth:`_split_task`).
+        The split's second call is the task's restart kernel (:meth:`_restart_call_to_split`). Returns the step's
+        info, ``info_of`` those copies by the ids of their state arrays (none where not split), and whether the
+        ``resetting`` sub-envs restarted; a split step calls ``info_of`` while the helpers run their chunks where
+        it reads none of the rows they write (``self._info_overlaps``: it copies no state array itself), else after
+        them."""
         if self._split_helpers < 1:  # then source is None
             self.task.step(state, actions, out)
             _end_step(*end)
-            return info_of({})
+            return info_of({}), False
         load = self._load_flag
         load[0] = source is not None
         before = (load, source if source is not None else self._no_source(), actions)
@@ -1125,40 +1110,64 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         split = self._split
         same = split is not None and split.kernel is kernel and len(args) == split.arity
         copies = tuple(np.empty_like(args[k]) for k in split.copies) if same else ()
-        call = (*before, *args, *copies, *end)
+        restart = self.task.restart_call(state, resetting, out["obs"]) if same and self._chunk_restarts else None
+        call = (*before, *args, *copies, *end, *(restart[1] if restart is not None else ()))
         if not same or not split.fits(kernel, call):
-            if split is not None:
-                split.close()
-            rows = {id(array) for array in (*state.values(), *out.values(), actions)}
-            info, updated = self.task.info(state, out), self._state_ids(state)[0]
-            reported = updated & {id(value) for value in _leaves(info)}
-            reported.discard(id(state["step"]))  # counted after the kernel: copied by _vector_info
-            sources = [k for k, arg in enumerate(args) if id(arg) in reported]
-            copies = tuple(np.empty_like(args[k]) for k in sources)
-            self._info_overlaps = not _copies_state(info, updated, {id(args[k]) for k in sources})
-            batch = [id(arg) in rows for arg in args] + [True] * len(copies)
-            self._chunk_rows = _chunk_rows(self.num_envs, self._split_helpers + 1)
-            self._split_restarts, second = self._restart_call_to_split(state, out["obs"])
-            clip = (_clip_actions, before, [False, True, True])
-            count = (_end_step, end, [True, True, False, True, True, True, True, True])
-            call = (*before, *args, *copies, *end)
-            try:
-                split = SplitKernel(
-                    kernel, (*args, *copies), batch, self._split_helpers, sources, second, before=clip, after=count
-                )
-            except ValueError:  # not splittable: this env steps in one thread from now on
-                self._split_helpers, split, copies = 0, None, ()
-            self._split = split
+            split, copies, call = self._split_task(state, out, kernel, args, before, end, resetting)
         if split is None:
             _clip_actions(*before)
             kernel(*args)
             _end_step(*end)
-            return info_of({})
+            return info_of({}), False
         by_source = {id(args[k]): copy for k, copy in zip(split.copies, copies, strict=True)}
         if self._info_overlaps:
-            return split(call, then=lambda: info_of(by_source))
+            return split(call, then=lambda: info_of(by_source)), self._chunk_restarts
         split(call)
-        return info_of(by_source)
+        return info_of(by_source), self._chunk_restarts
+
+    def _split_task(
+        self,
+        state: State,
+        out: State,
+        kernel: Callable[..., Any],
+        args: tuple[Any, ...],
+        before: tuple[Any, ...],
+        end: tuple[Any, ...],
+        resetting: np.ndarray,
+    ) -> tuple[SplitKernel | None, tuple[np.ndarray, ...], tuple[Any, ...]]:
+        """A new split of the step's calls (:meth:`_step_task`), in place of any before, the copies for the info
+        and the arguments of its first job; None where the kernel cannot be split (the env steps in one thread from
+        now on). Each chunk restarts its own rows (``self._chunk_restarts``) where the task has a restart kernel and
+        no episode constants, and the info overlaps the helpers: it then reads the rows that a chunk restarts from
+        the copies the chunk made before."""
+        if self._split is not None:
+            self._split.close()
+        rows = {id(array) for array in (*state.values(), *out.values(), before[2])}
+        info, updated = self.task.info(state, out), self._state_ids(state)[0]
+        reported = updated & {id(value) for value in _leaves(info)}
+        reported.discard(id(state["step"]))  # counted after the kernel: copied by _vector_info
+        sources = [k for k, arg in enumerate(args) if id(arg) in reported]
+        copies = tuple(np.empty_like(args[k]) for k in sources)
+        self._info_overlaps = not _copies_state(info, updated, {id(args[k]) for k in sources})
+        batch = [id(arg) in rows for arg in args] + [True] * len(copies)
+        self._chunk_rows = _chunk_rows(self.num_envs, self._split_helpers + 1)
+        self._split_restarts, second = self._restart_call_to_split(state, out["obs"])
+        clip = (_clip_actions, before, [False, True, True])
+        after = [(_end_step, end, [True, True, False, True, True, True, True, True])]
+        restart = None
+        if self._info_overlaps and not self.task.episode_constants:
+            restart = self.task.restart_call(state, resetting, out["obs"])  # the flags in place of the rows
+        if restart is not None:
+            after.append((*restart, [FLAGGED if arg is resetting else id(arg) in rows for arg in restart[1]]))
+        try:
+            split = SplitKernel(
+                kernel, (*args, *copies), batch, self._split_helpers, sources, second, before=clip, after=after
+            )
+        except ValueError:  # not splittable: this env steps in one thread from now on
+            self._split_helpers, split, copies = 0, None, ()
+        self._split = split
+        self._chunk_restarts = split is not None and restart is not None
+        return split, copies, (*before, *args, *copies, *end, *(restart[1] if self._chunk_restarts else ()))
 
     def _no_source(self) -> np.ndarray:
         """The float32 rows that a split step's conversion is given, and skips, where this thread loaded the
@@ -1225,6 +1234,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         self.__dict__.setdefault("_load_flag", np.zeros(1, np.bool_))  # pickled before the split loaded actions
         self.__dict__.setdefault("_unused_source", None)
         self.__dict__.setdefault("_info_overlaps", False)
+        self.__dict__.setdefault("_chunk_restarts", False)
         if not self.closed:  # this machine's threads, not the original's
             self._split_helpers = _split_helpers(self.num_envs)
 

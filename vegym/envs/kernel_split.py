@@ -87,8 +87,13 @@ _SLOTS = _CUT + 8
 _CHUNK_MASK = (1 << 32) - 1
 _JOB_MASK = (1 << 31) - 1
 """Job numbers wrap around at 2**31."""
-Call = tuple[Callable[..., Any], tuple[Any, ...], Sequence[bool]]
-"""A call that a split makes besides its kernel's: ``(kernel, arguments, which arguments are split by rows)``."""
+FLAGGED = "flagged"
+"""A call's mark (in place of True, see :data:`Call`) for a bool argument split by rows, of which each chunk passes
+the kernel the indices, within the chunk, of its rows that are true (:func:`flagged_rows`): the rows whose episodes
+restart, say."""
+Call = tuple[Callable[..., Any], tuple[Any, ...], Sequence[bool | str]]
+"""A call that a split makes besides its kernel's: ``(kernel, arguments, marks)``, each argument's mark true where it
+is split by rows (or :data:`FLAGGED`), false where it is passed whole."""
 _X86 = platform.machine().lower() in ("x86_64", "amd64", "i386", "i686", "x86")
 
 
@@ -187,6 +192,31 @@ def _copy(source: np.ndarray, destination: np.ndarray) -> None:
         flat[i] = value
 
 
+@njit(cache=True, nogil=True)
+def flagged_rows(mask: np.ndarray) -> np.ndarray:
+    """The rows (int indices, ascending) where ``mask`` (bool, C-contiguous) is true. It reads the mask eight rows
+    (a word) at a time and looks into the words with a row set only: a step ends few episodes (1.1 us for 30 of
+    8,192 rows, where a pass over every row took 3.1)."""
+    n = len(mask)
+    whole = n - n % 8
+    words = mask[:whole].view(np.uint64)
+    flagged = 0
+    for w in range(len(words)):
+        flagged += words[w] != 0
+    rows = np.empty(8 * flagged + n - whole, np.intp)
+    j = 0
+    if flagged:
+        for w in range(len(words)):
+            if words[w] != 0:
+                for i in range(8 * w, 8 * w + 8):  # branch-free: the next row overwrites it if not in mask
+                    rows[j] = i
+                    j += mask[i]
+    for i in range(whole, n):
+        rows[j] = i
+        j += mask[i]
+    return rows[:j]
+
+
 def _caller_side(
     control: np.ndarray,
     table: np.ndarray,
@@ -213,15 +243,16 @@ def _helper_side(
 
 def _fields(
     layout: types.StringLiteral, batch: types.StringLiteral
-) -> tuple[list[tuple[str, int, bool]], list[tuple[Any, list[int], list[tuple[int, int]]]]]:
+) -> tuple[list[tuple[str, int, bool]], list[tuple[Any, list[int], list[tuple[int, int]]]], set[int]]:
     """A job's arguments and calls from its ``layout`` and ``batch`` (:meth:`_Job.__init__`): each argument's
-    ``(field, ndim, split by rows)`` (ndim 0 for a scalar), in the order of the job's argument tuple, and each call
-    in order as ``(kernel, its arguments' positions, its copies)``, each copy ``(source, destination)`` positions.
-    ``layout`` joins with ``";"`` each call's :func:`kernel_call.packed_layout` (of its arguments, then its copies'
-    destinations); ``batch`` joins each call's marks: ``"b"`` for each argument split by rows, ``"-"`` for the
-    others, then ``">"`` and the copies' sources (positions among the call's arguments), comma-separated."""
+    ``(field, ndim, split by rows)`` (ndim 0 for a scalar), in the order of the job's argument tuple; each call
+    in order as ``(kernel, its arguments' positions, its copies)``, each copy ``(source, destination)`` positions;
+    and the positions of the :data:`FLAGGED` arguments. ``layout`` joins with ``";"`` each call's
+    :func:`kernel_call.packed_layout` (of its arguments, then its copies' destinations); ``batch`` joins each
+    call's marks: ``"b"`` for each argument split by rows, ``"r"`` for a flagged one, ``"-"`` for the others, then
+    ``">"`` and the copies' sources (positions among the call's arguments), comma-separated."""
     fields: list[tuple[str, int, bool]] = []
-    calls = []
+    calls, flagged = [], set()
     for call_layout, marks in zip(layout.literal_value.split(";"), batch.literal_value.split(";"), strict=True):
         target, _, *call_fields = call_layout.split("|")
         flags, _, sources = marks.partition(">")
@@ -230,12 +261,13 @@ def _fields(
         copied = [int(k) for k in sources.split(",")] if sources else []
         start, arity = len(fields), len(call_fields) - len(copied)
         fields += [
-            (field, 0 if field == "s" else int(field.split(":")[1]), flag == "b")
+            (field, 0 if field == "s" else int(field.split(":")[1]), flag != "-")
             for field, flag in zip(call_fields, flags, strict=True)
         ]
+        flagged.update(start + k for k, flag in enumerate(flags) if flag == "r")
         copies = [(start + source, start + arity + k) for k, source in enumerate(copied)]
         calls.append((kernel, list(range(start, start + arity)), copies))
-    return fields, calls
+    return fields, calls, flagged
 
 
 def _compile(source: str, kernels: list[Any], **names: Any) -> Callable[..., Any]:
@@ -272,14 +304,15 @@ def _caller_side_impl(control, table, args, chunks, spin_rounds, naps, kind, sol
     whether a helper's kernel raised."""
     if not (isinstance(layout, types.StringLiteral) and isinstance(batch, types.StringLiteral)):
         return None
-    fields, calls = _fields(layout, batch)
+    fields, calls, flagged = _fields(layout, batch)
     writes, position = [], 0
     for k, (_, ndim, _) in enumerate(fields):
         if ndim:
             writes.append(f"table[{position}] = args[{k}].ctypes.data")
             writes += [f"table[{position + 1 + d}] = args[{k}].shape[{d}]" for d in range(ndim)]
             position += 1 + ndim
-    chunk = _chunk_body(calls, lambda k: f"args[{k}][lo:hi]" if fields[k][2] else f"args[{k}]")
+    parts = {k: f"args[{k}][lo:hi]" if split else f"args[{k}]" for k, (_, _, split) in enumerate(fields)}
+    chunk = _chunk_body(calls, lambda k: f"flagged_rows({parts[k]})" if k in flagged else parts[k])
     first = next(k for k, (_, _, split) in enumerate(fields) if split)
     source = f"""
 def generated(control, table, args, chunks, spin_rounds, naps, kind, solo, wait, layout, batch):
@@ -312,6 +345,7 @@ def generated(control, table, args, chunks, spin_rounds, naps, kind, solo, wait,
     return _compile(
         source, [kernel for kernel, _, _ in calls], _store_release=_store_release, _load_acquire=_load_acquire,
         _compare_exchange=_compare_exchange, _atomic_update=_atomic_update, _copy=_copy, _finish=_finish,
+        flagged_rows=flagged_rows,
     )  # fmt: skip
 
 
@@ -321,7 +355,7 @@ def _helper_side_impl(table, scalars, chunk, chunks, cut, layout, batch):  # noq
     ``scalars``."""
     if not (isinstance(layout, types.StringLiteral) and isinstance(batch, types.StringLiteral)):
         return None
-    fields, calls = _fields(layout, batch)
+    fields, calls, flagged = _fields(layout, batch)
     names, arrays, position, scalar = {}, [], 0, 0
     for k, (field, ndim, split) in enumerate(fields):
         if not ndim:
@@ -342,7 +376,7 @@ def generated(table, scalars, chunk, chunks, cut, layout, batch):
     n = table[{rows_at}]
     {_BOUNDS}
     {"; ".join(f"a{k} = {array}" for k, array in enumerate(arrays))}
-    {_chunk_body(calls, lambda k: f"a{k}")}
+    {_chunk_body(calls, lambda k: f"flagged_rows(a{k})" if k in flagged else f"a{k}")}
 """
     return _compile(
         source,
@@ -350,6 +384,7 @@ def generated(table, scalars, chunk, chunks, cut, layout, batch):
         _pointer=kernel_call._pointer,
         _read_only=kernel_call._read_only,
         _copy=_copy,
+        flagged_rows=flagged_rows,
         **names,
     )
 
@@ -457,9 +492,10 @@ def _compiled(dispatcher: Any, signature: tuple[Any, ...]) -> Callable[..., Any]
     return None if compiled is None else compiled.entry_point
 
 
-def _marks(batch: Sequence[bool], copies: Sequence[int] = ()) -> str:
+def _marks(batch: Sequence[bool | str], copies: Sequence[int] = ()) -> str:
     """A call's marks in a job's ``batch`` literal (:func:`_fields`)."""
-    return "".join("b" if split else "-" for split in batch) + ">" + ",".join(map(str, copies))
+    marks = ("r" if split is FLAGGED else "b" if split else "-" for split in batch)
+    return "".join(marks) + ">" + ",".join(map(str, copies))
 
 
 class _Job:
@@ -590,9 +626,11 @@ class SplitKernel:
     those only. With ``copies``, the positions of batch arguments, the last ``len(copies)`` arguments are not the
     kernel's but arrays of the same dtypes and shapes, batch arguments too, into which each chunk copies its rows
     of those arguments after its kernel (by the thread that wrote them, while they are in its cache; ``TypeError``
-    for copies of other arguments or into other arrays). ``before`` and ``after``, calls ``(kernel, args, batch)``
-    whose batch arguments have the rows of ``kernel``'s, are made on each chunk before ``kernel`` and after it
-    (and its copies): the split's calls then take ``(*before_args, *args, *after_args)``. With ``second``, a call
+    for copies of other arguments or into other arrays). ``before`` and the calls ``after``, each ``(kernel, args,
+    batch)`` (:data:`Call`) whose batch arguments have the rows of ``kernel``'s, are made on each chunk before
+    ``kernel`` and after it (and its copies), in turn: the split's calls then take ``(*before_args, *args,
+    *after_args...)``. Their :data:`FLAGGED` arguments, bool batch arrays, reach the kernel as the indices of the
+    chunk's rows set in them, in the chunk's arrays (:func:`flagged_rows`). With ``second``, a call
     ``(kernel, args, batch)`` that the same helpers run too (``job=1``): its batch arguments, all of one length,
     are split by their first axis in the same way, but the others may have as many rows (row indices split between
     chunks that write those rows of whole arrays, say); each chunk must write what no other chunk writes or reads.
@@ -611,9 +649,9 @@ class SplitKernel:
         copies: Sequence[int] = (),
         second: Call | None = None,
         before: Call | None = None,
-        after: Call | None = None,
+        after: Sequence[Call] = (),
     ) -> None:
-        around = [call for call in (before, after) if call is not None]
+        around = [*([] if before is None else [before]), *after]
         marked = [(args, batch), *((call_args, call_batch) for _, call_args, call_batch in around)]
         pairs = [pair for call_args, call_batch in marked for pair in zip(call_args, call_batch, strict=True)]
         rows = {len(arg) for arg, split in pairs if split}
@@ -655,8 +693,7 @@ class SplitKernel:
         calls = [(kernel, args, _marks(batch, copies))]
         if before is not None:
             calls.insert(0, (before[0], before[1], _marks(before[2])))
-        if after is not None:
-            calls.append((after[0], after[1], _marks(after[2])))
+        calls += [(call[0], call[1], _marks(call[2])) for call in after]
         self.jobs = [_Job(calls, int(before is not None), self.control, self._naps)]
         """The jobs this split runs: ``kernel``'s (with ``before`` and ``after``), and ``second``'s if given."""
         second_rows = second is not None and {len(a) for a, split in zip(*second[1:], strict=True) if split}
