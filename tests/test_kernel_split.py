@@ -25,6 +25,9 @@ from vegym.envs.kernel_split import SPLIT_MIN_ROWS, SplitKernel
 ENV_IDS = sorted(env_id for env_id in gym.registry if env_id.startswith("vegym/"))
 SPLIT_ENVS = 2 * SPLIT_MIN_ROWS + 3
 """Enough sub-envs for two chunks, an odd number so that the chunks differ in size."""
+CHUNK_RESTARTS = {"vegym/SteerableWheel-v0", "vegym/BouncingBall-v0"}
+"""The envs whose split steps restart the ended episodes in their chunks (a restart kernel, no episode constants);
+hundreds end in each chunk in the rollouts below."""
 
 
 def _helpers() -> list[threading.Thread]:
@@ -88,6 +91,7 @@ def test_a_split_step_gives_the_one_thread_step_bit_for_bit(
     split_outputs, single_outputs = _rollout(split, 40), _rollout(single, 40)
     assert isinstance(split.unwrapped._split, SplitKernel)
     assert split.unwrapped._info_overlaps  # the info is built while the helper runs its chunk
+    assert split.unwrapped._chunk_restarts == (env_id in CHUNK_RESTARTS)
     assert (_posted_jobs(split.unwrapped._split) == 0) == alone
     assert single.unwrapped._split is None
     _assert_same(split_outputs, single_outputs)
