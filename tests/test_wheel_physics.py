@@ -214,3 +214,14 @@ def test_steer_step_wraps_the_heading_into_minus_pi_to_pi() -> None:
     pose = Pose(np.array([0.0]), np.array([0.0]), np.array([3.0]), np.array([0.0]))
     new = wheel.steer_step(pose, np.array([1.0]), np.array([1.0]), 0.5, WheelParams())
     assert new.heading[0] == 3.5 - 2.0 * np.pi
+
+
+def test_the_oriented_arc_step_is_the_arc_step_with_the_sine_and_cosine_of_the_new_heading() -> None:
+    """The sine and cosine come from turning the mid-step heading's by the half turn: within 2e-15 of those of the
+    wrapped heading (the roundings of the mid-step heading and of the two sines and cosines), for any heading and
+    turn (up to 6 rad a step here)."""
+    rng = np.random.default_rng(0)
+    for heading, yaw_rate in zip(rng.uniform(-np.pi, np.pi, 2000), rng.uniform(-60.0, 60.0, 2000), strict=True):
+        *arc, sine, cosine = wheel.oriented_arc_step(1.0, -2.0, heading, 0.5, 1.7, yaw_rate, 0.1, 0.3)
+        assert tuple(arc) == wheel.arc_step(1.0, -2.0, heading, 0.5, 1.7, yaw_rate, 0.1, 0.3)
+        assert abs(sine - np.sin(arc[2])) <= 2e-15 and abs(cosine - np.cos(arc[2])) <= 2e-15

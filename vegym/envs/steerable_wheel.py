@@ -133,9 +133,9 @@ def _step_kernel(
     into the outputs (``steer`` to ``obs``); ``c`` holds the parameters named in ``STEP_CONSTANTS``, in that order.
 
     Written as passes over the batch that compile to SIMD code (the move with the capture test of the current
-    waypoint, the rewards, the observation), with the waypoints passed found in a pass over the capturing
-    episodes only. 2-D arrays are read and written through flat views, whose fixed row widths let the compiler
-    vectorise the strided accesses."""
+    waypoint, the rewards, the observation from the move's sines and cosines of the new headings), with the
+    waypoints passed found in a pass over the capturing episodes only. 2-D arrays are read and written through
+    flat views, whose fixed row widths let the compiler vectorise the strided accesses."""
     max_speed, max_acceleration, dt, max_yaw_rate = c[0], c[1], c[2], c[3]
     radius, half_size, capture_radius = c[4], c[5], c[6]
     progress_weight, waypoint_bonus, time_penalty, effort_penalty, exit_penalty = c[7], c[8], c[9], c[10], c[11]
@@ -146,14 +146,18 @@ def _step_kernel(
     # separate allocations: the compiler knows they do not overlap (rows of one array keep the loops slow)
     progress, start_x, start_z, end_x, end_z = scratch(n), scratch(n), scratch(n), scratch(n), scratch(n)
     target_x, target_z, passed, capturing = scratch(n), scratch(n), scratch(n), scratch(n)
+    # the new heading's sine and cosine (from the arc's, one sincos fewer) take the targets' place once read: two
+    # more arrays written in the first pass kept it from SIMD code, at twice the cost
+    sines, cosines = target_x, target_z
     _gather_waypoints(waypoints, index, 0, target_x, target_z)
     for i in range(n):
         command = 0.5 * max_speed * (actions[2 * i] + 1.0)
         v = min(max(command, speed[i] - dv), speed[i] + dv)
         yaw_rate = max_yaw_rate * actions[2 * i + 1]
-        sx, sz = xz[2 * i], xz[2 * i + 1]
-        ex, ez, heading[i], roll[i] = wheel.arc_step(sx, sz, heading[i], roll[i], v, yaw_rate, dt, radius)
-        tx, tz = target_x[i], target_z[i]
+        sx, sz, tx, tz = xz[2 * i], xz[2 * i + 1], target_x[i], target_z[i]
+        ex, ez, heading[i], roll[i], sines[i], cosines[i] = wheel.oriented_arc_step(
+            sx, sz, heading[i], roll[i], v, yaw_rate, dt, radius
+        )
         ax, az, bx, bz = tx - sx, tz - sz, tx - ex, tz - ez
         progress[i] = math.sqrt(ax * ax + az * az) - math.sqrt(bx * bx + bz * bz)
         capture = (index[i] <= last) & (_point_segment_distance(tx, tz, sx, sz, ex, ez) <= capture_radius)
@@ -184,7 +188,7 @@ def _step_kernel(
         term[5 * i], term[5 * i + 1], term[5 * i + 2], term[5 * i + 3], term[5 * i + 4] = t0, t1, t2, t3, t4
         reward[i] = t0 + t1 + t2 + t3 + t4
         success[i], terminated[i] = done, done or outside
-    _observe(position, heading, speed, waypoints, index, c, obs)
+    _observe_oriented(position, sines, cosines, speed, waypoints, index, c, obs)
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -207,17 +211,33 @@ def _observe(
     c: np.ndarray,
     obs: np.ndarray,
 ) -> None:
-    """Observations (n, 8) written into ``obs``; ``c`` holds the parameters named in ``STEP_CONSTANTS``. Written as
-    SIMD passes over the batch: the heading's sine and cosine, then per shown waypoint (gathered first) its
-    distance and bearing, then speed and progress."""
+    """Observations (n, 8) written into ``obs``; ``c`` holds the parameters named in ``STEP_CONSTANTS``: the
+    heading's sine and cosine in a SIMD pass, then :func:`_observe_oriented`."""
+    sines, cosines = scratch(len(heading)), scratch(len(heading))
+    for i in range(len(heading)):
+        sines[i], cosines[i] = vmath.sincos(heading[i])
+    _observe_oriented(position, sines, cosines, speed, waypoints, index, c, obs)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _observe_oriented(
+    position: np.ndarray,
+    sines: np.ndarray,
+    cosines: np.ndarray,
+    speed: np.ndarray,
+    waypoints: np.ndarray,
+    index: np.ndarray,
+    c: np.ndarray,
+    obs: np.ndarray,
+) -> None:
+    """:func:`_observe` from the sines and cosines of the headings. Written as SIMD passes over the batch: per
+    shown waypoint (gathered first) its distance and bearing, then speed and progress."""
     max_speed, diagonal = c[0], c[12]
     n, n_waypoints = len(index), waypoints.shape[1]
     per_diagonal, per_max_speed, per_waypoint = 1.0 / diagonal, 1.0 / max_speed, 1.0 / n_waypoints
     xz, out = position.reshape(-1), obs.reshape(-1)
     width = OBS_PER_WAYPOINT * SHOWN_WAYPOINTS + 2
-    sines, cosines, shown_x, shown_z = scratch(n), scratch(n), scratch(n), scratch(n)
-    for i in range(n):
-        sines[i], cosines[i] = vmath.sincos(heading[i])
+    shown_x, shown_z = scratch(n), scratch(n)
     for j in range(SHOWN_WAYPOINTS):
         _gather_waypoints(waypoints, index, j, shown_x, shown_z)
         for i in range(n):

@@ -158,16 +158,34 @@ def arc_step(
 ) -> tuple[float, float, float, float]:
     """:func:`steer_step` for one wheel in scalars (SI, rad): ``(x, z, heading, roll)`` after ``dt``.
 
-    The one compiled form of the arc: :func:`steer_step` loops over it and SteerableWheel-v0's step kernel inlines it.
-    Branch-free (sine and cosine from :func:`vegym.physics.vmath.sincos`), so a loop over wheels runs as SIMD code.
+    The one compiled form of the arc (:func:`oriented_arc_step`'s first four results): :func:`steer_step` loops over
+    it and SteerableWheel-v0's step kernel inlines it. Branch-free (sine and cosine from
+    :func:`vegym.physics.vmath.sincos`), so a loop over wheels runs as SIMD code.
     """
+    return oriented_arc_step(x, z, heading, roll, speed, yaw_rate, dt, radius)[:4]
+
+
+@njit(cache=True, inline="always", error_model="numpy")
+def oriented_arc_step(
+    x: float, z: float, heading: float, roll: float, speed: float, yaw_rate: float, dt: float, radius: float
+) -> tuple[float, float, float, float, float, float]:
+    """:func:`arc_step`, and the sine and cosine of the heading after it: those of the mid-step heading turned by
+    the second half of the turn (within a few ulps of ``vmath.sincos`` of the heading, without its range
+    reduction)."""
     distance = speed * dt
     phi = yaw_rate * dt
     half_turn = np.pi * (0.5 * phi / np.pi)  # np.sinc's argument, so the chord rounds as np.sinc(phi / 2 pi) does
-    sin_half = vmath.sincos(half_turn)[0]
+    sin_half, cos_half = vmath.sincos(half_turn)
     chord = distance * (sin_half / half_turn if half_turn != 0.0 else 1.0)
     sin_mid, cos_mid = vmath.sincos(heading + 0.5 * phi)
-    return x + chord * sin_mid, z + chord * cos_mid, wrap_one(heading + phi), roll + distance / radius
+    return (
+        x + chord * sin_mid,
+        z + chord * cos_mid,
+        wrap_one(heading + phi),
+        roll + distance / radius,
+        sin_mid * cos_half + cos_mid * sin_half,
+        cos_mid * cos_half - sin_mid * sin_half,
+    )
 
 
 @njit(cache=True)
