@@ -99,6 +99,57 @@ def test_a_split_step_gives_the_one_thread_step_bit_for_bit(
     single.close()
 
 
+def test_a_restart_kernel_the_split_cannot_call_leaves_the_restarts_to_the_calling_thread(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The split is made again without them, not given up for one thread."""
+    task_cls = type(_vector_env("vegym/SteerableWheel-v0", 0).unwrapped.task)
+    restart_call = task_cls.restart_call
+
+    def through_python(self: object, state: dict, rows: np.ndarray, obs: np.ndarray) -> tuple:
+        kernel, args = restart_call(self, state, rows, obs)
+        return (lambda *args: kernel(*args)), args  # not a numba kernel: no split can call it
+
+    monkeypatch.setattr(task_cls, "restart_call", through_python)
+    split, single = _vector_env("vegym/SteerableWheel-v0", 1), _vector_env("vegym/SteerableWheel-v0", 0)
+    split_outputs, single_outputs = _rollout(split, 40), _rollout(single, 40)
+    assert isinstance(split.unwrapped._split, SplitKernel) and not split.unwrapped._chunk_restarts
+    _assert_same(split_outputs, single_outputs)
+    split.close()
+
+
+@pytest.mark.parametrize("env_id", sorted(CHUNK_RESTARTS))
+def test_a_split_step_interrupted_while_it_builds_its_info_is_done_but_for_the_info(env_id: str) -> None:
+    """Its chunks have restarted the episodes that had ended and written the new autoreset flags: later steps go on
+    as after the step uninterrupted. The old flags kept would restart those episodes again, a second key advance
+    (a review's finding)."""
+    interrupted, reference = _vector_env(env_id, 1), _vector_env(env_id, 1)
+    actions = np.random.default_rng(3).uniform(-1, 1, (30, *interrupted.action_space.shape)).astype(np.float32)
+    for env in (interrupted, reference):
+        env.reset(seed=3)
+    task, step = interrupted.unwrapped.task, 0
+    while step < 5 or not interrupted.unwrapped._autoreset.any():
+        for env in (interrupted, reference):
+            env.step(actions[step])
+        step += 1
+    info = task.info
+
+    def interrupt(*args: object) -> None:
+        task.info = info
+        raise KeyboardInterrupt
+
+    task.info = interrupt
+    with pytest.raises(KeyboardInterrupt):
+        interrupted.step(actions[step])
+    assert interrupted.unwrapped._chunk_restarts and task.info == info
+    reference.step(actions[step])
+    for action in actions[step + 1 : step + 4]:
+        _assert_same(list(interrupted.step(action)[:4]), list(reference.step(action)[:4]))
+    np.testing.assert_array_equal(interrupted.unwrapped.state["key"], reference.unwrapped.state["key"])
+    for env in (interrupted, reference):
+        env.close()
+
+
 @pytest.mark.parametrize(
     ("env_id", "intervals"), [("vegym/Aircraft-v0", (2.0, 5.0)), ("vegym/PendulumPump-v0", (0.1, 0.25))]
 )
@@ -377,10 +428,12 @@ def test_each_chunk_makes_the_before_call_then_the_kernel_then_the_after_call(
 
 @pytest.mark.parametrize("n", [0, 1, 7, 8, 9, 23, 4096, 8195])
 @pytest.mark.parametrize("share", [0.0, 0.004, 0.3, 1.0])
-def test_flagged_rows_are_the_set_flags_in_ascending_order(n: int, share: float) -> None:
-    """Read a word of eight flags at a time: a row set in a word's first or last place, in the rows past the last
-    whole word, and masks of every row or none."""
-    flags = np.random.default_rng(n).random(n) < share
+@pytest.mark.parametrize("offset", [0, 3])
+def test_flagged_rows_are_the_set_flags_in_ascending_order(n: int, share: float, offset: int) -> None:
+    """Read a word of eight flags at a time, from the first word boundary: a row set in a word's first or last place,
+    before the first boundary and past the last whole word, masks of every row or none, and a chunk's part of the
+    flags that starts off a boundary (``offset``)."""
+    flags = (np.random.default_rng(n).random(n + offset) < share)[offset:]
     flags[[k for k in (0, 7, 8, n - 1) if 0 <= k < n and share > 0.0]] = True
     rows = kernel_split.flagged_rows(flags)
     assert rows.dtype == np.intp

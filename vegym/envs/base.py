@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import abc
 import collections
+import contextlib
 import dataclasses
 import functools
 import importlib
@@ -1015,6 +1016,9 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         (SyncVectorEnv fills them with zeros, and returns an empty info where every sub-env resets, where this one
         returns every key masked out, its values zeros; read infos through the masks). Every row's action is
         checked, a resetting row's too (SyncVectorEnv ignores theirs): a NaN or inf anywhere raises ``ValueError``.
+        A step interrupted (Ctrl-C) keeps the autoreset flags of the step before, so that the next step starts the
+        episodes that had ended; but one whose chunks restarted them (a split step, :meth:`_split_task`) and that was
+        interrupted while it built its info is done but for its info, and keeps its own flags.
         """
         state = self.state
         if state is None:
@@ -1120,10 +1124,24 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             _end_step(*end)
             return info_of({}), False
         by_source = {id(args[k]): copy for k, copy in zip(split.copies, copies, strict=True)}
-        if self._info_overlaps:
-            return split(call, then=lambda: info_of(by_source)), self._chunk_restarts
-        split(call)
-        return info_of(by_source), self._chunk_restarts
+        restarts, chunks_done = self._chunk_restarts, False
+
+        def info_after_chunks() -> Info:
+            nonlocal chunks_done
+            chunks_done = True  # this thread's; the helpers' are waited for before anything raised here goes on
+            return info_of(by_source)
+
+        try:
+            if self._info_overlaps:
+                return split(call, then=info_after_chunks), restarts
+            split(call)
+            return info_after_chunks(), restarts
+        except BaseException:
+            if restarts and chunks_done and not split.errors:
+                # the chunks restarted the rows the old flags name and wrote the new flags: the step is done but for
+                # its info, and the old flags kept would restart those rows again
+                self._autoreset = end[7]
+            raise
 
     def _split_task(
         self,
@@ -1157,16 +1175,23 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         restart = None
         if self._info_overlaps and not self.task.episode_constants:
             restart = self.task.restart_call(state, resetting, out["obs"])  # the flags in place of the rows
-        if restart is not None:
-            after.append((*restart, [FLAGGED if arg is resetting else id(arg) in rows for arg in restart[1]]))
-        try:
-            split = SplitKernel(
-                kernel, (*args, *copies), batch, self._split_helpers, sources, second, before=clip, after=after
-            )
-        except ValueError:  # not splittable: this env steps in one thread from now on
-            self._split_helpers, split, copies = 0, None, ()
+        if restart is not None and sum(arg is resetting for arg in restart[1]) == 1:
+            marks = [FLAGGED if arg is resetting else id(arg) in rows for arg in restart[1]]
+            restarts = [(*restart, marks)]
+        else:  # no restart kernel, or one that does not take the rows as given
+            restart, restarts = None, []
+        split = None
+        for chunk_restarts in [True, False] if restarts else [False]:
+            with contextlib.suppress(ValueError):  # one that fails with the restarts is tried without
+                split = SplitKernel(
+                    kernel, (*args, *copies), batch, self._split_helpers, sources, second, before=clip,
+                    after=after + restarts if chunk_restarts else after,
+                )  # fmt: skip
+                break
+        if split is None:  # not splittable: this env steps in one thread from now on
+            self._split_helpers, copies = 0, ()
         self._split = split
-        self._chunk_restarts = split is not None and restart is not None
+        self._chunk_restarts = split is not None and chunk_restarts
         return split, copies, (*before, *args, *copies, *end, *(restart[1] if self._chunk_restarts else ()))
 
     def _no_source(self) -> np.ndarray:

@@ -195,20 +195,24 @@ def _copy(source: np.ndarray, destination: np.ndarray) -> None:
 @njit(cache=True, nogil=True)
 def flagged_rows(mask: np.ndarray) -> np.ndarray:
     """The rows (int indices, ascending) where ``mask`` (bool, C-contiguous) is true. It reads the mask eight rows
-    (a word) at a time and looks into the words with a row set only: a step ends few episodes (1.1 us for 30 of
-    8,192 rows, where a pass over every row took 3.1)."""
+    (an aligned word) at a time and looks into the words with a row set only: a step ends few episodes (1.1 us for
+    30 of 8,192 rows, where a pass over every row took 3.1)."""
     n = len(mask)
-    whole = n - n % 8
-    words = mask[:whole].view(np.uint64)
+    head = min((-mask.ctypes.data) % 8, n)  # the rows before the first word's boundary
+    whole = head + (n - head) // 8 * 8
+    words = mask[head:whole].view(np.uint64)
     flagged = 0
     for w in range(len(words)):
         flagged += words[w] != 0
-    rows = np.empty(8 * flagged + n - whole, np.intp)
+    rows = np.empty(head + 8 * flagged + n - whole, np.intp)
     j = 0
+    for i in range(head):  # branch-free: the next row overwrites it if not in mask
+        rows[j] = i
+        j += mask[i]
     if flagged:
         for w in range(len(words)):
             if words[w] != 0:
-                for i in range(8 * w, 8 * w + 8):  # branch-free: the next row overwrites it if not in mask
+                for i in range(head + 8 * w, head + 8 * w + 8):
                     rows[j] = i
                     j += mask[i]
     for i in range(whole, n):
