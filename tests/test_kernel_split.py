@@ -118,36 +118,40 @@ def test_a_restart_kernel_the_split_cannot_call_leaves_the_restarts_to_the_calli
     split.close()
 
 
+@pytest.mark.parametrize("when", ["as the calling thread's chunk returns", "while the info is built"])
 @pytest.mark.parametrize("env_id", sorted(CHUNK_RESTARTS))
-def test_a_split_step_interrupted_while_it_builds_its_info_is_done_but_for_the_info(env_id: str) -> None:
+def test_a_split_step_interrupted_after_its_chunks_is_done_but_for_its_info(env_id: str, when: str) -> None:
     """Its chunks have restarted the episodes that had ended and written the new autoreset flags: later steps go on
     as after the step uninterrupted. The old flags kept would restart those episodes again, a second key advance
-    (a review's finding)."""
+    (a review's finding). A Ctrl-C during the compiled call is raised as it returns, before the info."""
     interrupted, reference = _vector_env(env_id, 1), _vector_env(env_id, 1)
     actions = np.random.default_rng(3).uniform(-1, 1, (30, *interrupted.action_space.shape)).astype(np.float32)
     for env in (interrupted, reference):
         env.reset(seed=3)
-    task, step = interrupted.unwrapped.task, 0
-    while step < 5 or not interrupted.unwrapped._autoreset.any():
-        for env in (interrupted, reference):
-            env.step(actions[step])
+    env, step = interrupted.unwrapped, 0
+    while step < 5 or not env._autoreset.any():
+        for vector in (interrupted, reference):
+            vector.step(actions[step])
         step += 1
-    info = task.info
+    owner, name = (env.task, "info") if when == "while the info is built" else (env._split.jobs[0], "call")
+    original = getattr(owner, name)
 
     def interrupt(*args: object) -> None:
-        task.info = info
+        setattr(owner, name, original)
+        if name == "call":
+            original(*args)
         raise KeyboardInterrupt
 
-    task.info = interrupt
+    setattr(owner, name, interrupt)
     with pytest.raises(KeyboardInterrupt):
         interrupted.step(actions[step])
-    assert interrupted.unwrapped._chunk_restarts and task.info == info
+    assert env._chunk_restarts and env._split.done and getattr(owner, name) == original
     reference.step(actions[step])
     for action in actions[step + 1 : step + 4]:
         _assert_same(list(interrupted.step(action)[:4]), list(reference.step(action)[:4]))
-    np.testing.assert_array_equal(interrupted.unwrapped.state["key"], reference.unwrapped.state["key"])
-    for env in (interrupted, reference):
-        env.close()
+    np.testing.assert_array_equal(env.state["key"], reference.unwrapped.state["key"])
+    for vector in (interrupted, reference):
+        vector.close()
 
 
 @pytest.mark.parametrize(
@@ -467,6 +471,28 @@ def test_a_flagged_argument_reaches_the_kernel_as_the_indices_of_its_chunks_set_
     split((*args, *after[1]))
     np.testing.assert_array_equal(out, np.where(flags, rows, -1.0))
     assert (_posted_jobs(split) == 0) == alone
+    split.close()
+
+
+def test_an_interrupt_raised_as_the_calling_threads_chunk_returns_waits_for_the_helpers_chunks() -> None:
+    """Python raises a Ctrl-C that came during the compiled call as the call returns, before ``then``: the helpers'
+    chunks were not waited for, and a step made after it (in a notebook, say) could count a helper's late chunk of
+    the interrupted job as one of its own and return before its rows were written. The calling thread's chunk is
+    made small here, so that the helper's is still running as the call returns (a split's first call runs split)."""
+    args = _divide_arguments(4_000_001)
+    split = SplitKernel(_divide, args, [True, True, False, True], 1)
+    split.cut = 1
+    job = split.jobs[0]
+    call = job.call
+
+    def interrupted_as_it_returns(*call_args: object) -> object:
+        call(*call_args)
+        raise KeyboardInterrupt
+
+    job.call = interrupted_as_it_returns
+    with pytest.raises(KeyboardInterrupt):
+        split(args, then=lambda: None)
+    assert _posted_jobs(split) == 1 and split.control[kernel_split._FINISHED] == split.chunks
     split.close()
 
 

@@ -1017,8 +1017,8 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         returns every key masked out, its values zeros; read infos through the masks). Every row's action is
         checked, a resetting row's too (SyncVectorEnv ignores theirs): a NaN or inf anywhere raises ``ValueError``.
         A step interrupted (Ctrl-C) keeps the autoreset flags of the step before, so that the next step starts the
-        episodes that had ended; but one whose chunks restarted them (a split step, :meth:`_split_task`) and that was
-        interrupted while it built its info is done but for its info, and keeps its own flags.
+        episodes that had ended; but one whose chunks had restarted them (a split step, :meth:`_split_task`) is done
+        but for its info, and keeps its own flags.
         """
         state = self.state
         if state is None:
@@ -1124,20 +1124,14 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             _end_step(*end)
             return info_of({}), False
         by_source = {id(args[k]): copy for k, copy in zip(split.copies, copies, strict=True)}
-        restarts, chunks_done = self._chunk_restarts, False
-
-        def info_after_chunks() -> Info:
-            nonlocal chunks_done
-            chunks_done = True  # this thread's; the helpers' are waited for before anything raised here goes on
-            return info_of(by_source)
-
+        restarts = self._chunk_restarts
         try:
             if self._info_overlaps:
-                return split(call, then=info_after_chunks), restarts
+                return split(call, then=lambda: info_of(by_source)), restarts
             split(call)
-            return info_after_chunks(), restarts
+            return info_of(by_source), restarts
         except BaseException:
-            if restarts and chunks_done and not split.errors:
+            if restarts and split.done:
                 # the chunks restarted the rows the old flags name and wrote the new flags: the step is done but for
                 # its info, and the old flags kept would restart those rows again
                 self._autoreset = end[7]

@@ -717,6 +717,9 @@ class SplitKernel:
         if serve is None:
             raise ValueError(f"{kernel!r} cannot be split: numba's cache has no code for its layout")
         self.errors: list[BaseException] = []
+        self.done = False
+        """Whether every chunk of the last call ran to its end, also where the call raised after them (an interrupt,
+        or an error of ``then``)."""
         threads: list[threading.Thread] = []
         self.close = weakref.finalize(self, _stop, self.control, threads)
         """Stop the helpers (each after the chunk it holds; later calls run every chunk in the calling thread)."""
@@ -753,7 +756,9 @@ class SplitKernel:
         helper's chunk. A kernel's error is raised here: from the calling thread's chunk at once (a helper may
         still be running its chunk then, and chunks that no thread had taken are not run), from a helper's once the
         others are done; then the helpers stop, and later calls run in the calling thread. Either way the call is
-        incomplete, as after an error in one thread."""
+        incomplete, as after an error in one thread. An interrupt (Ctrl-C) during the call is raised once the
+        helpers' chunks are done too."""
+        self.done = False
         target = self.jobs[job]
         solo = self.chooser.choose(time.perf_counter()) if job == 0 else self.chooser.solo
         control = self.control
@@ -763,16 +768,23 @@ class SplitKernel:
                 control, target.table, args, self.chunks, self._spin_rounds, self._naps, job, solo, then is None,
                 target.layout, target.batch,
             )  # fmt: skip
-        except Exception:  # the calling thread's chunk raised (a KeyboardInterrupt comes after the call returned)
+        except Exception:  # the calling thread's chunk raised
             self.close()
             raise
+        except BaseException:  # a Ctrl-C during the call, raised as it returned: wait for the helpers' chunks
+            if then is not None and not solo:
+                _finish(control, self.chunks, self._spin_rounds, self._naps)
+            self.done = not self.errors
+            raise
         if then is None or solo:
+            self.done = not failed
             result = None if then is None else then()
         else:
             try:
                 result = then()
             finally:  # the helpers' chunks are waited for whatever then() did
                 failed, done = _finish(control, self.chunks, self._spin_rounds, self._naps)
+                self.done = not failed
                 if failed:
                     self.close()
                 elif job == 0:
