@@ -21,11 +21,13 @@ import vegym  # noqa: F401  (registers the envs)
 from vegym.envs import kernel_split
 from vegym.envs.base import _leaves
 from vegym.envs.kernel_split import SPLIT_MIN_ROWS, SplitKernel
+from vegym.envs.projectile import ProjectileTask
+from vegym.envs.projectile_adjust import ProjectileAdjustTask
 
 ENV_IDS = sorted(env_id for env_id in gym.registry if env_id.startswith("vegym/"))
 SPLIT_ENVS = 2 * SPLIT_MIN_ROWS + 3
 """Enough sub-envs for two chunks, an odd number so that the chunks differ in size."""
-CHUNK_RESTARTS = {"vegym/SteerableWheel-v0", "vegym/BouncingBall-v0"}
+CHUNK_RESTARTS = {"vegym/SteerableWheel-v0", "vegym/BouncingBall-v0", "vegym/ProjectileAdjust-v0"}
 """The envs whose split steps restart the ended episodes in their chunks (a restart kernel, no episode constants);
 hundreds end in each chunk in the rollouts below."""
 
@@ -592,26 +594,33 @@ def test_a_split_steps_info_reports_the_step_count_after_the_step_as_one_thread_
     assert counts[0] == counts[1] == [[1, 1, 1], [2, 2, 2], [3, 3, 3]]
 
 
+@pytest.mark.parametrize("declared", [True, False], ids=["episode constants", "plain state"])
 @pytest.mark.parametrize("helpers", [1, 0], ids=["split", "one thread"])
-def test_a_steps_info_shows_the_episode_constants_it_stepped_with_though_rows_restart_after_it(helpers: int) -> None:
-    """The step renews the episode constants right after its info took views of them (a split step while the
-    helper runs its chunk); the restarts then write into the new arrays, and the info keeps the old ones, the
-    restarted rows' too."""
+def test_a_steps_info_shows_the_episode_constants_it_stepped_with_though_rows_restart_after_it(
+    helpers: int, declared: bool, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Declared as episode constants, the step renews them right after its info took views of them (a split step
+    while the helper runs its chunk), the restarts then write into the new arrays and the info keeps the old ones;
+    as plain state (ProjectileAdjust's, registered), the info takes copies of them that each chunk makes right
+    after its step, before it restarts its rows. Either way the info keeps the values stepped with, the restarted
+    rows' too."""
+    names = ProjectileTask.episode_constants
+    monkeypatch.setattr(ProjectileAdjustTask, "episode_constants", names if declared else ())
     env = _vector_env("vegym/ProjectileAdjust-v0", helpers)
-    constants = env.unwrapped.task.episode_constants
     env.reset(seed=1)
     actions = np.random.default_rng(1).uniform(-1, 1, (6, *env.action_space.shape)).astype(np.float32)
     restarts = 0
     for action in actions:
-        before = {name: env.unwrapped.state[name].copy() for name in constants}
+        before = {name: env.unwrapped.state[name].copy() for name in names}
         info = env.step(action)[4]
         restarted = ~info["_target"]  # the rows that ended on the step before start a new episode now
         restarts += restarted.sum()
-        for name in constants:
+        for name in names:
             np.testing.assert_array_equal(info[name], before[name])
         assert np.all(np.any(env.unwrapped.state["target"][restarted] != before["target"][restarted], axis=1))
     assert restarts > SPLIT_ENVS  # every episode ends within max_shots = 3 steps
     assert env.unwrapped._info_overlaps == (helpers == 1)
+    assert env.unwrapped._chunk_restarts == (helpers == 1 and not declared)
     env.close()
 
 

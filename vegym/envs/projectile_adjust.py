@@ -229,7 +229,10 @@ class ProjectileAdjustTask(Task[ProjectileAdjustParams]):
 
     params_cls = ProjectileAdjustParams
     renderer = "vegym.render.projectile_adjust:ProjectileAdjustRenderer"
-    episode_constants = ProjectileTask.episode_constants
+    # Projectile's episode constants (launch_position, target, wind) are plain state here. Episodes end within
+    # max_shots steps (3 at the defaults), so a vector env restarts a quarter of its rows or more at every step and
+    # would copy them as episode constants anyway; as state, each chunk of a split step copies its rows for the info
+    # and then restarts its own ended episodes (``Task.restart_call``), where the calling thread restarted them all.
 
     def __init__(self, params: ProjectileAdjustParams) -> None:
         super().__init__(params)
