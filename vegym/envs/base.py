@@ -1163,7 +1163,6 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         self._info_overlaps = not _copies_state(info, updated, {id(args[k]) for k in sources})
         batch = [id(arg) in rows for arg in args] + [True] * len(copies)
         self._chunk_rows = _chunk_rows(self.num_envs, self._split_helpers + 1)
-        self._split_restarts, second = self._restart_call_to_split(state, out["obs"])
         clip = (_clip_actions, before, [False, True, True])
         after = [(_end_step, end, [True, True, False, True, True, True, True, True])]
         restart = None
@@ -1176,6 +1175,10 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             restart, restarts = None, []
         split = None
         for chunk_restarts in [True, False] if restarts else [False]:
+            # the second call restarts the rows a step leaves to _restart_rows: none where the chunks restart them
+            self._split_restarts, second = (
+                (None, None) if chunk_restarts else self._restart_call_to_split(state, out["obs"])
+            )
             with contextlib.suppress(ValueError):  # one that fails with the restarts is tried without
                 split = SplitKernel(
                     kernel, (*args, *copies), batch, self._split_helpers, sources, second, before=clip,

@@ -498,7 +498,7 @@ def _compiled(dispatcher: Any, signature: tuple[Any, ...]) -> Callable[..., Any]
 
 def _marks(batch: Sequence[bool | str], copies: Sequence[int] = ()) -> str:
     """A call's marks in a job's ``batch`` literal (:func:`_fields`)."""
-    marks = ("r" if split is FLAGGED else "b" if split else "-" for split in batch)
+    marks = ("r" if split == FLAGGED else "b" if split else "-" for split in batch)
     return "".join(marks) + ">" + ",".join(map(str, copies))
 
 
