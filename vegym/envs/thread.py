@@ -144,8 +144,9 @@ STEP_CONSTANTS = ("max_force", "dt", "settle_fraction", "effort_weight", "pluck_
 """Parameters the kernels read, in the order of their constants array (SI units, see the fields)."""
 
 
-_BLOCK = 256
-"""Threads the step kernel advances at once in the column layout: its scratch stays in the L2 cache."""
+_BLOCK = 64
+"""Threads the step kernel advances at once in the column layout: its scratch (about 60 kB) stays in the first-level
+caches."""
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -256,15 +257,15 @@ def _observe_kernel(
     obs: np.ndarray,
 ) -> None:
     """Observations (n, 4 N + 1) into ``obs``; ``c`` holds the parameters named in ``STEP_CONSTANTS``. Loops over
-    each row's coordinates innermost, for SIMD code."""
-    pluck_max, velocity_scale = c[4], c[5]
+    each row's coordinates innermost, for SIMD code, scaled by reciprocals (divisions are slower)."""
+    per_pluck, per_speed = 1.0 / c[4], 1.0 / c[5]
     n, size = len(excess), 2 * positions.shape[1]
     p, v, rest = positions.reshape(n, size), velocities.reshape(n, size), equilibrium.reshape(-1)
     for i in range(n):  # one loop per part of the row: a loop writing two parts of one array compiles to slower code
         for k in range(size):
-            obs[i, k] = min(max((p[i, k] - rest[k]) / pluck_max, -1.0), 1.0)
+            obs[i, k] = min(max((p[i, k] - rest[k]) * per_pluck, -1.0), 1.0)
         for k in range(size):
-            obs[i, size + k] = min(max(v[i, k] / velocity_scale, -1.0), 1.0)
+            obs[i, size + k] = min(max(v[i, k] * per_speed, -1.0), 1.0)
     for i in range(n):  # f / (1 + f) of the fraction f = E / E0 left, as E / (E0 + E): 1/2 at the release, bounded
         left = max(excess[i], 0.0)
         obs[i, 2 * size] = left / (initial_excess[i] + left)
