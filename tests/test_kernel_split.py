@@ -240,7 +240,8 @@ def test_a_bad_action_in_a_split_step_raises_before_any_row_steps(bad: float) ->
 
 
 SOME_ROWS_RESTARTS = ["vegym/BouncingBall-v0", "vegym/ProjectileAdjust-v0", "vegym/SteerableWheel-v0"]
-"""The envs whose restart kernel takes some rows, which a split step runs over parts of them."""
+"""The envs whose restart kernel takes some rows: a split step's chunks restart their own (``CHUNK_RESTARTS``), or,
+for a task with episode constants, the split runs it over parts of them after the step."""
 EVERY_ROW_RESTARTS = ["vegym/Billiards-v0", "vegym/Projectile-v0"]
 """The envs whose restart kernel takes every row only, which a split step runs over chunks of rows."""
 

@@ -56,7 +56,8 @@ hot path, split from ``kernel_split.SPLIT_MIN_ROWS`` rows per core instead, on h
 steps."""
 SPLIT_RESTART_ROWS = 1024
 """Restarts of at least this many rows after a split step are split too, between the calling thread and the step's
-helpers, which are still spinning."""
+helpers, which are still spinning: where the step's chunks do not restart their own rows (a task with episode
+constants, say; none of the registered envs)."""
 
 
 class Task(abc.ABC, Generic[P]):
@@ -153,13 +154,14 @@ class Task(abc.ABC, Generic[P]):
         """The one kernel call that does :meth:`restart`'s work for these arguments, or None (then
         :meth:`restart_by_parts` does it). Tasks whose episodes restart often (short episodes) return one; the
         single env binds it once, as :meth:`step_call`'s. A large vector env runs it in its step's threads at once
-        (:meth:`VegymVectorEnv._restart_call_to_split`): for fewer rows than the batch, over parts of ``rows``
-        (``SPLIT_RESTART_ROWS`` or more), passing the other arguments whole, so the kernel must read and write the
-        rows ``rows`` of the state and of ``obs`` only (and the task's constants), and one that observes every row
-        returns None there (Projectile's); for every row, over chunks of rows as :meth:`step_call`'s. For a task
-        without episode constants, each chunk of a split step runs it on its own rows after its step, given the
-        chunk's rows of the state, of ``obs`` and of the keys, and ``rows`` within the chunk (the call is made with
-        the bool autoreset flags in place of ``rows``: :meth:`VegymVectorEnv._split_task`)."""
+        (:meth:`VegymVectorEnv._restart_call_to_split`). For a task without episode constants, each chunk of a split
+        step runs it on its own rows after its step, given the chunk's rows of the state, of ``obs`` and of the keys,
+        and ``rows`` within the chunk (the call is made with the bool autoreset flags in place of ``rows``:
+        :meth:`VegymVectorEnv._split_task`). Otherwise the split runs it after the step: for fewer rows than the
+        batch, over parts of ``rows`` (``SPLIT_RESTART_ROWS`` or more), passing the other arguments whole, so the
+        kernel must read and write the rows ``rows`` of the state and of ``obs`` only (and the task's constants), and
+        one that observes every row returns None there (Projectile's); for every row, over chunks of rows as
+        :meth:`step_call`'s."""
         return None
 
     @abc.abstractmethod
@@ -1098,7 +1100,8 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
         state arrays that the info reports (but ``step``, which the bookkeeping counts), for the info (each thread
         copies the rows it wrote), right after the kernel. Each chunk then also restarts its rows of the sub-envs
         ``resetting`` (bool), by the task's restart kernel, where ``self._chunk_restarts`` (:meth:`_split_task`).
-        The split's second call is the task's restart kernel (:meth:`_restart_call_to_split`). Returns the step's
+        Where they do not, the split's second call is the task's restart kernel (:meth:`_restart_call_to_split`),
+        for the restarts after the step (:meth:`_restart_rows`, :meth:`_restart_every_row`). Returns the step's
         info, ``info_of`` those copies by the ids of their state arrays (none where not split), and whether the
         ``resetting`` sub-envs restarted; a split step calls ``info_of`` while the helpers run their chunks where
         it reads none of the rows they write (``self._info_overlaps``: it copies no state array itself), else after
@@ -1175,7 +1178,7 @@ class VegymVectorEnv(VectorEnv, Generic[P]):
             restart, restarts = None, []
         split = None
         for chunk_restarts in [True, False] if restarts else [False]:
-            # the second call restarts the rows a step leaves to _restart_rows: none where the chunks restart them
+            # the second call restarts rows after a step (_restart_rows, _restart_every_row): none where chunks do
             self._split_restarts, second = (
                 (None, None) if chunk_restarts else self._restart_call_to_split(state, out["obs"])
             )

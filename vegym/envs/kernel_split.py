@@ -559,8 +559,9 @@ class ModeChooser:
     calls of the first ``SOLO_SETTLE_S`` or ``SPLIT_SETTLE_S`` are not timed (the helpers still spin, or nap).
     Intervals of more than ``PAUSE`` times the way in use's median (the caller paused) count for nothing.
 
-    On the 2-core VM this was measured on, 8,192 ProjectileAdjust envs stepped 1.25x as fast as with the split
-    always on beside a busy process, and 1.10x idle; SteerableWheel 0.97x and AircraftGusty 0.99x idle."""
+    On the 2-core VM this was measured on (at 04b4bf1, when ProjectileAdjust's restarts ran after its split step),
+    8,192 ProjectileAdjust envs stepped 1.25x as fast as with the split always on beside a busy process, and 1.10x
+    idle; SteerableWheel 0.97x and AircraftGusty 0.99x idle."""
 
     def __init__(self) -> None:
         self.solo = False

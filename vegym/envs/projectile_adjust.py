@@ -230,9 +230,10 @@ class ProjectileAdjustTask(Task[ProjectileAdjustParams]):
     params_cls = ProjectileAdjustParams
     renderer = "vegym.render.projectile_adjust:ProjectileAdjustRenderer"
     # Projectile's episode constants (launch_position, target, wind) are plain state here. Episodes end within
-    # max_shots steps (3 at the defaults), so a vector env restarts a quarter of its rows or more at every step and
-    # would copy them as episode constants anyway; as state, each chunk of a split step copies its rows for the info
-    # and then restarts its own ended episodes (``Task.restart_call``), where the calling thread restarted them all.
+    # max_shots steps, so a vector env restarts some rows at nearly every step (about a quarter at the defaults) and
+    # would copy them as episode constants anyway (the calling thread did, before a second split call restarted
+    # those rows); as state, each chunk of a split step copies its rows for the info and then restarts its own ended
+    # episodes (``Task.restart_call``).
 
     def __init__(self, params: ProjectileAdjustParams) -> None:
         super().__init__(params)

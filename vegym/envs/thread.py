@@ -145,8 +145,8 @@ STEP_CONSTANTS = ("max_force", "dt", "settle_fraction", "effort_weight", "pluck_
 
 
 _BLOCK = 64
-"""Threads the step kernel advances at once in the column layout: its scratch (about 60 kB) stays in the first-level
-caches."""
+"""Threads the step kernel advances at once in the column layout: its scratch (58 KiB at 9 nodes) stays in the
+second-level cache with the rows it reads (the fastest of 32 to 256 here)."""
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
