@@ -27,7 +27,10 @@ import vegym
 from agents.analytic import REFERENCE_AGENTS, controller_for
 from vegym import rng
 from vegym.envs import base
+from vegym.envs.aircraft import AircraftEnvParams
 from vegym.params import LARGEST, SMALLEST
+from vegym.physics.aircraft import AircraftParams
+from vegym.physics.pendulum import PendulumParams
 
 ENV_IDS = list(vegym.ENVS)
 
@@ -971,6 +974,19 @@ def test_unknown_keyword_raises_a_type_error_listing_the_parameters(env_id: str)
     misspelt = names[0] + names[0][-1]
     with pytest.raises(TypeError, match=rf"has no parameter {misspelt!r} \(did you mean {names[0]!r}\?\)"):
         gym.make(env_id, **{misspelt: 1.0})
+
+
+def test_a_physics_subset_takes_the_fields_of_its_names_and_refuses_a_missing_or_unknown_one() -> None:
+    task = AircraftEnvParams(max_turn_rate=0.2, wind_x=3.0)
+    physics = task.subset(AircraftParams, book_faithful=True)
+    assert (physics.max_turn_rate, physics.wind_x, physics.book_faithful) == (0.2, 3.0, True)
+    assert task.physics == dataclasses.replace(physics, book_faithful=False)
+    with pytest.raises(TypeError, match="AircraftEnvParams has no parameter 'book_faithful' of AircraftParams"):
+        task.subset(AircraftParams)
+    with pytest.raises(TypeError, match="AircraftParams has no parameter 'book_faithfull'"):
+        task.subset(AircraftParams, book_faithful=False, book_faithfull=True)
+    with pytest.raises(TypeError, match="AircraftEnvParams has no parameter 'length' of PendulumParams"):
+        task.subset(PendulumParams)
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)

@@ -164,6 +164,20 @@ class Params:
         """The parameters as plain keyword arguments."""
         return dataclasses.asdict(self)  # type: ignore[call-overload]
 
+    def subset(self, cls: type[ParamsT], **given: Any) -> ParamsT:
+        """The parameter set ``cls`` (a task's physics, say) of this set's fields of the same names, and ``given``
+        for the others; ``TypeError`` names a field of ``cls`` that neither has (none is left at its default
+        unseen) or a name in ``given`` that ``cls`` lacks."""
+        own = {f.name for f in dataclasses.fields(self)}  # type: ignore[arg-type]
+        names = [f.name for f in dataclasses.fields(cls)]  # type: ignore[arg-type]
+        unknown = next((name for name in given if name not in names), None)
+        if unknown is not None:
+            raise TypeError(f"{cls.__name__} has no parameter {unknown!r}")
+        missing = next((name for name in names if name not in own and name not in given), None)
+        if missing is not None:
+            raise TypeError(f"{type(self).__name__} has no parameter {missing!r} of {cls.__name__}: give it")
+        return cls(**{name: given[name] if name in given else getattr(self, name) for name in names})
+
     def between(
         self,
         name: str,

@@ -74,19 +74,7 @@ class AircraftEnvParams(ScheduledParams, Params):
     @property
     def physics(self) -> AircraftParams:
         """The aircraft physics parameters (the clean model, not the book-faithful variant)."""
-        return AircraftParams(
-            max_acceleration=self.max_acceleration,
-            max_deceleration=self.max_deceleration,
-            max_climb_rate=self.max_climb_rate,
-            max_descent_rate=self.max_descent_rate,
-            max_turn_rate=self.max_turn_rate,
-            min_speed=self.min_speed,
-            max_speed=self.max_speed,
-            floor_altitude=self.floor_altitude,
-            ceiling_altitude=self.ceiling_altitude,
-            wind_x=self.wind_x,
-            wind_z=self.wind_z,
-        )
+        return self.subset(AircraftParams, book_faithful=False)
 
     @property
     def vertical_speed_scale(self) -> float:

@@ -53,7 +53,7 @@ class BouncingBallParams(Params):
     @property
     def particle(self) -> ParticleParams:
         """The falling-particle physics parameters."""
-        return ParticleParams(gravity=self.gravity, radius=self.radius)
+        return self.subset(ParticleParams)
 
     @property
     def height_scale(self) -> float:

@@ -69,7 +69,7 @@ class PendulumPumpParams(ScheduledParams, Params):
     @property
     def physics(self) -> PendulumParams:
         """The pendulum physics parameters."""
-        return PendulumParams(length=self.length, mass=self.mass, gravity=self.gravity, damping=self.damping)
+        return self.subset(PendulumParams)
 
     @property
     def max_torque_step(self) -> float:

@@ -67,7 +67,7 @@ class ProjectileEnvParams(Params):
     @property
     def physics(self) -> ProjectileParams:
         """The projectile physics parameters."""
-        return ProjectileParams(gravity=self.gravity, radius=self.radius)
+        return self.subset(ProjectileParams)
 
     @property
     def reachable_distance(self) -> float:

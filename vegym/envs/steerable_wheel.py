@@ -75,7 +75,7 @@ class SteerableWheelParams(Params):
     @property
     def wheel(self) -> WheelParams:
         """The wheel's physical parameters."""
-        return WheelParams(radius=self.radius)
+        return self.subset(WheelParams)
 
     @property
     def half_size(self) -> float:

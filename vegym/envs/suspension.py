@@ -78,9 +78,7 @@ class SuspensionParams(Params):
     @property
     def spring(self) -> SpringParams:
         """The spring-mass physics parameters."""
-        return SpringParams(
-            mass=self.mass, modulus=self.modulus, natural_length=self.natural_length, gravity=self.gravity
-        )
+        return self.subset(SpringParams)
 
     @property
     def static_length(self) -> float:

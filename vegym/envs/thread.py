@@ -106,15 +106,7 @@ class ThreadEnvParams(Params):
     @property
     def physics(self) -> ThreadParams:
         """The thread physics parameters."""
-        return ThreadParams(
-            n_nodes=self.n_nodes,
-            node_mass=self.node_mass,
-            stiffness=self.stiffness,
-            natural_length=self.natural_length,
-            span=self.span,
-            gravity=self.gravity,
-            drag=self.drag,
-        )
+        return self.subset(ThreadParams)
 
     @property
     def actuated(self) -> np.ndarray:
