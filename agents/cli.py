@@ -5,7 +5,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import shlex
 import sys
 import tempfile
@@ -378,20 +377,17 @@ def cmd_demo(args: argparse.Namespace) -> int:
     return 0
 
 
-HEADLESS_VIDEO_DRIVERS = ("offscreen", "dummy")
-"""SDL's video drivers that show nothing, which it falls back to where no display is found."""
-
-
 def _check_display() -> None:
     """ValueError where SDL finds no display to open a window on (unless ``SDL_VIDEODRIVER`` asks for one that
     shows nothing); the display is started here, as the window would start it."""
     import pygame
 
-    pygame.display.init()
-    driver = pygame.display.get_driver()
-    if driver in HEADLESS_VIDEO_DRIVERS and "SDL_VIDEODRIVER" not in os.environ:
+    from vegym.render.window import start_display
+
+    fallback = start_display()
+    if fallback is not None:
         pygame.display.quit()
-        raise ValueError(f"no display to show the episodes on (SDL fell back to {driver!r}); write a GIF with --gif")
+        raise ValueError(f"no display to show the episodes on (SDL fell back to {fallback!r}); write a GIF with --gif")
 
 
 def build_parser() -> argparse.ArgumentParser:

@@ -7,6 +7,7 @@ import gc
 import math
 import subprocess
 import sys
+import warnings
 from collections import deque
 from typing import Any
 
@@ -723,6 +724,21 @@ def test_a_window_shows_the_frame_s_colours_and_takes_its_own_title() -> None:
     finally:
         first.close()
         second.close()
+
+
+def test_human_rendering_without_a_display_warns_once_that_nothing_is_shown(monkeypatch: pytest.MonkeyPatch) -> None:
+    for name in ("DISPLAY", "WAYLAND_DISPLAY", "SDL_VIDEODRIVER"):
+        monkeypatch.delenv(name, raising=False)
+    pygame.display.quit()  # started again by the window, where SDL falls back to a driver that shows nothing
+    env = gym.make("vegym/Projectile-v0", render_mode="human")
+    try:
+        with pytest.warns(UserWarning, match="ProjectileEnv: no display to show render_mode='human' on"):
+            env.reset(seed=0)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            env.step(np.zeros(3, np.float32))
+    finally:
+        env.close()
 
 
 def test_the_clock_s_second_hand_points_down_at_half_a_minute() -> None:
