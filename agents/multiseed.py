@@ -33,6 +33,7 @@ from agents.training import (
     latest_model,
     raise_keyboard_interrupt,
     resume_config,
+    resume_point,
     seed_dir,
     train,
 )
@@ -170,7 +171,9 @@ def train_seeds(
                     finally:
                         _block_sigint(False)  # here a Ctrl-C that came meanwhile is raised, the worker known
                     progress.start_task(bars[seed])
-                    log(f"seed {seed}: training into {seed_dir(out, seed)}")
+                    source = latest_model(seed_dir(out, seed)) if seed in resumed else None
+                    start = f"resuming from {resume_point(source)} in" if source is not None else "training into"
+                    log(f"seed {seed}: {start} {seed_dir(out, seed)}")
                 _collect(channel, running, outcomes, progress, bars, log)
             except KeyboardInterrupt:
                 if stopping:
@@ -182,6 +185,7 @@ def train_seeds(
                 log("interrupted: the running seeds save their models; Ctrl-C again to abort")
         for seed in pending:
             outcomes[seed] = SeedOutcome(seed, error=NOT_STARTED)
+            progress.update(bars[seed], description=f"seed {seed}: not started")  # its bar, unstarted, pulses
     return [outcomes[s] for s in configs]
 
 

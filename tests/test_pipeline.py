@@ -1231,8 +1231,10 @@ def test_train_seeds_trains_each_seed_and_reports_a_failed_one(tmp_path: Path) -
     single = run_cli(*args, "--no-progress")  # a single run into a directory of seed runs mixes the layouts
     assert single.returncode == 2 and "holds seed_<k>/ runs" in single.stdout
     resume = ["train", "--env", "Projectile-v0", "--algo", "ppo", "--out", str(out), "--seeds", "1,2", "--resume"]
+    held = saved_timesteps(out / "seed_1" / "model.zip")
     resumed = run_cli(*resume, "--timesteps", "5000")
     assert resumed.returncode == 0, resumed.stdout + resumed.stderr
+    assert f"seed 1: resuming from {held} steps (model.zip) in {out / 'seed_1'}" in resumed.stdout
     assert all(saved_timesteps(out / f"seed_{s}" / "model.zip") >= 5000 for s in (1, 2))
     assert saved_timesteps(out / "seed_3" / "model.zip") < 5000
     assert "seed 1: done after" in resumed.stdout
