@@ -396,7 +396,10 @@ def build_parser() -> argparse.ArgumentParser:
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     env_help = "env id, e.g. BouncingBall-v0 or vegym/BouncingBall-v0"
-    agent_help = "analytic, random, a reference of the env (oracle for BouncingBall) or a model path (run dir or .zip)"
+    agent_help = (
+        "analytic (the default), random, a reference of the env (planner or oracle for BouncingBall, "
+        "draft-compensating for AircraftGusty, continuous-skyhook for Suspension) or a model path (run dir or .zip)"
+    )
     threads_help = "torch threads (default 1: small MLPs train fastest on one; more only oversubscribe the CPU)"
     seed_help = f"seed of the first episode; episode k uses seed + k (default {EVAL_SEED})"
 

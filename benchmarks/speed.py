@@ -204,7 +204,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--json", action="store_true", help="print JSON instead of a table")
     parser.add_argument(
-        "--seconds", type=float, default=0.5, help="a timing lasts 1/3 to 2/3 of it; a measurement about twice it (s)"
+        "--seconds",
+        type=float,
+        default=0.5,
+        help="time per measurement: the best of three timings of 1/3 to 2/3 of it each (s, default 0.5)",
     )
     parser.add_argument("--pairs", type=int, default=3, help="back-to-back pairs with CartPole per cell (default: 3)")
     parser.add_argument(

@@ -33,6 +33,7 @@ from stable_baselines3.common.vec_env import DummyVecEnv
 import agents
 import vegym
 from agents import cli, compare, multiseed, training
+from agents.analytic import REFERENCE_AGENTS
 from agents.basics import ALGO_NAMES, EVAL_SEED
 from agents.cli import _print_table, build_parser, main
 from agents.config import (
@@ -1300,6 +1301,18 @@ def test_the_command_parses_its_arguments_without_importing_torch_sb3_or_scipy()
     )
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True)
     assert done.stdout.strip() == "[]"
+
+
+@pytest.mark.parametrize("command", ["evaluate", "demo"])
+def test_the_agent_help_names_every_reference_agent_with_its_env(
+    command: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit):
+        main([command, "--help"])
+    shown = " ".join(capsys.readouterr().out.split())  # the help's lines joined
+    for env_id, references in REFERENCE_AGENTS.items():
+        assert f"{' or '.join(references)} for {vegym.env_name(env_id).removesuffix('-v0')}" in shown, env_id
+    assert "--agent AGENT analytic (the default)" in shown
 
 
 def test_algo_names_of_the_parser_are_the_config_algorithms() -> None:
