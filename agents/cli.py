@@ -111,7 +111,7 @@ def cmd_train(args: argparse.Namespace) -> int:
     """Train an SB3 agent from a config, on one seed or on several in parallel."""
     import torch
 
-    from agents.training import CONFIG_FILE, check_run_dir, resume_config, resume_point, train
+    from agents.training import CONFIG_FILE, check_run_dir, held_timesteps, resume_config, train
 
     env_id = vegym.resolve_env_id(args.env)
     out = Path(args.out) if args.out else Path("runs") / env_name(env_id) / args.algo
@@ -136,7 +136,9 @@ def cmd_train(args: argparse.Namespace) -> int:
     if source is None:
         say(f"training {config.algo} on {config.env_id} for {planned} into {out}")
     else:
-        say(f"resuming {config.algo} on {config.env_id} in {out} from {resume_point(source)}, to {planned} in all")
+        held = held_timesteps(source)
+        start = source.name if held is None else f"{held} steps ({source.name})"
+        say(f"resuming {config.algo} on {config.env_id} in {out} from {start}, to {planned} in all")
     result = train(config, out, resume=args.resume, progress_bar=not args.no_progress, command=command, exiting=True)
     if result.interrupted:
         say(f"interrupted at {result.timesteps} steps; saved {result.model_path}; continue with --resume")

@@ -29,11 +29,11 @@ from agents.config import TrainConfig, with_overrides
 from agents.training import (
     REPEAT_WINDOW_S,
     TrainResult,
+    check_run_dir,
     interrupts_handled,
     latest_model,
     raise_keyboard_interrupt,
     resume_config,
-    resume_point,
     seed_dir,
     train,
 )
@@ -57,13 +57,17 @@ class SeedOutcome:
 
 
 class _ReportProgress(BaseCallback):
-    """Puts ``("progress", seed, steps)`` on the parent's queue at most every :data:`REPORT_EVERY_S`."""
+    """Puts ``("started", seed, steps)`` on the parent's queue as the training starts (the steps a resumed model
+    holds, else 0), then ``("progress", seed, steps)`` at most every :data:`REPORT_EVERY_S`."""
 
     def __init__(self, seed: int, channel: Any) -> None:
         super().__init__()
         self.seed = seed
         self.channel = channel
         self._last = 0.0
+
+    def _on_training_start(self) -> None:
+        self.channel.put(("started", self.seed, self.num_timesteps))
 
     def _on_step(self) -> bool:
         now = time.monotonic()
@@ -113,8 +117,10 @@ def resumed_configs(
     out: Path, seeds: Sequence[int], env_id: str, algo: str, n_timesteps: int | None = None
 ) -> dict[int, TrainConfig]:
     """Each seed's saved config, to resume it (with a new total ``n_timesteps`` if given); ValueError if a seed
-    holds no run or one of another env or algorithm."""
+    holds no run, no model to resume from, or a run of another env or algorithm."""
     configs = {s: resume_config(seed_dir(out, s), n_timesteps) for s in seeds}
+    for seed in seeds:  # a worker cut down before its first save left a config and no model: refused before any starts
+        check_run_dir(seed_dir(out, seed), resume=True)
     for seed, config in configs.items():
         if (config.env_id, config.algo) != (env_id, algo):
             where = seed_dir(out, seed)
@@ -171,8 +177,7 @@ def train_seeds(
                     finally:
                         _block_sigint(False)  # here a Ctrl-C that came meanwhile is raised, the worker known
                     progress.start_task(bars[seed])
-                    source = latest_model(seed_dir(out, seed)) if seed in resumed else None
-                    start = f"resuming from {resume_point(source)} in" if source is not None else "training into"
+                    start = "resuming the run in" if seed in resumed else "training into"
                     log(f"seed {seed}: {start} {seed_dir(out, seed)}")
                 _collect(channel, running, outcomes, progress, bars, log)
             except KeyboardInterrupt:
@@ -215,6 +220,10 @@ def _collect(
         kind = None
     if kind == "progress":
         progress.update(bars[seed], completed=payload)
+    elif kind == "started":
+        progress.update(bars[seed], completed=payload)
+        if payload:
+            log(f"seed {seed}: resumed at {payload} steps")
     elif kind == "done":
         outcomes[seed] = SeedOutcome(seed, result=payload)
         if payload.interrupted:  # short of its total, which the bar keeps

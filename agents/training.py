@@ -99,13 +99,6 @@ def held_timesteps(path: Path) -> int | None:
         return None
 
 
-def resume_point(source: Path) -> str:
-    """The start of a run resumed from the model ``source``, for the log: ``"N steps (file name)"``, or the file's
-    name where its step count cannot be read."""
-    held = held_timesteps(source)
-    return source.name if held is None else f"{held} steps ({source.name})"
-
-
 def normalize_path(model_path: Path) -> Path:
     """The VecNormalize statistics saved with a model: ``vecnormalize.pkl`` or a checkpoint's own file."""
     match = re.fullmatch(rf"{CHECKPOINT_PREFIX}_(\d+)_steps\.zip", model_path.name)

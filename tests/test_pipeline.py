@@ -7,6 +7,7 @@ import os
 import queue
 import random
 import re
+import shutil
 import signal
 import subprocess
 import sys
@@ -1235,7 +1236,8 @@ def test_train_seeds_trains_each_seed_and_reports_a_failed_one(tmp_path: Path) -
     held = saved_timesteps(out / "seed_1" / "model.zip")
     resumed = run_cli(*resume, "--timesteps", "5000")
     assert resumed.returncode == 0, resumed.stdout + resumed.stderr
-    assert f"seed 1: resuming from {held} steps (model.zip) in {out / 'seed_1'}" in resumed.stdout
+    assert f"seed 1: resuming the run in {out / 'seed_1'}" in resumed.stdout
+    assert f"seed 1: resumed at {held} steps" in resumed.stdout
     assert all(saved_timesteps(out / f"seed_{s}" / "model.zip") >= 5000 for s in (1, 2))
     assert saved_timesteps(out / "seed_3" / "model.zip") < 5000
     assert "seed 1: done after" in resumed.stdout
@@ -1244,6 +1246,11 @@ def test_train_seeds_trains_each_seed_and_reports_a_failed_one(tmp_path: Path) -
     assert again.returncode == 0 and f"already holds {steps} steps" in again.stdout
     assert "seed 3: done after" in again.stdout  # the seeds of one agent share their config, total steps included
     assert "trained seeds [3]; nothing to train for [1]" in again.stdout
+    (out / "seed_9").mkdir()  # a worker cut down before its first save: a config and no model
+    shutil.copy(out / "seed_1" / "config.yml", out / "seed_9" / "config.yml")
+    unsaved = run_cli(*resume[:-3], "--seeds", "1,9", "--resume", "--no-progress")
+    assert unsaved.returncode == 2 and f"{out / 'seed_9'} holds no model or checkpoint" in unsaved.stdout
+    assert "seed 1:" not in unsaved.stdout  # refused before any seed starts
     wrong = run_cli("train", "--env", "Projectile-v0", "--algo", "sac", "--out", str(out), "--seeds", "1", "--resume")
     assert wrong.returncode == 2 and "is ppo on vegym/Projectile-v0, not sac" in wrong.stdout
     name, factories, config = agent_factory(str(out), "vegym/Projectile-v0")
