@@ -8,10 +8,11 @@ import json
 import shlex
 import sys
 import tempfile
+import textwrap
 import time
 from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import gymnasium as gym
 from rich.console import Console
@@ -390,13 +391,27 @@ def _check_display() -> None:
         raise ValueError(f"no display to show the episodes on (SDL fell back to {fallback!r}); write a GIF with --gif")
 
 
+class _HelpFormatter(argparse.HelpFormatter):
+    """argparse's help, its lines broken at spaces only (not inside names such as ``draft-compensating``)."""
+
+    def _split_lines(self, text: str, width: int) -> list[str]:
+        return textwrap.wrap(" ".join(text.split()), width, break_on_hyphens=False)
+
+
+class _Parser(argparse.ArgumentParser):
+    """An argument parser with :class:`_HelpFormatter`, the subcommands' too."""
+
+    def __init__(self, **kwargs: Any) -> None:
+        super().__init__(formatter_class=_HelpFormatter, **kwargs)
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of ``vegym`` and its subcommands."""
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="vegym",
         description="Train, evaluate and compare agents on the vegym envs against the chapter's analytic controllers.",
     )
-    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND", parser_class=_Parser)
     env_help = "env id, e.g. BouncingBall-v0 or vegym/BouncingBall-v0"
     agent_help = (
         "analytic (the default), random, a reference of the env (planner or oracle for BouncingBall, "

@@ -207,7 +207,7 @@ def main() -> None:
         "--seconds",
         type=float,
         default=0.5,
-        help="time per measurement: the best of three timings of 1/3 to 2/3 of it each (s, default 0.5)",
+        help="a timing lasts 1/3 to 2/3 of it; a measurement, the best of three, about twice it (s, default 0.5)",
     )
     parser.add_argument("--pairs", type=int, default=3, help="back-to-back pairs with CartPole per cell (default: 3)")
     parser.add_argument(

@@ -1312,8 +1312,9 @@ def test_the_command_parses_its_arguments_without_importing_torch_sb3_or_scipy()
 
 @pytest.mark.parametrize("command", ["evaluate", "demo"])
 def test_the_agent_help_names_every_reference_agent_with_its_env(
-    command: str, capsys: pytest.CaptureFixture[str]
+    command: str, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    monkeypatch.setenv("COLUMNS", "76")  # a width at which argparse's own wrapping split draft-compensating
     with pytest.raises(SystemExit):
         main([command, "--help"])
     shown = " ".join(capsys.readouterr().out.split())  # the help's lines joined
