@@ -188,6 +188,7 @@ class ProjectileFiringSolution(AnalyticController):
 
     def __init__(self, params: ProjectileEnvParams) -> None:
         self.params = params
+        self.physics = params.physics
 
     def act(self, obs: np.ndarray) -> np.ndarray:
         p = self.params
@@ -195,7 +196,7 @@ class ProjectileFiringSolution(AnalyticController):
         zeros = np.zeros(n)
         delta = np.stack([obs[:, 0] * p.target_distance_max, p.radius - obs[:, 1] * p.height_scale, zeros], axis=-1)
         wind = np.stack([obs[:, 2] * p.wind_scale, zeros, obs[:, 3] * p.wind_scale], axis=-1)
-        elevation, azimuth, _, _ = projectile.firing_solution(delta, wind, p.speed_max, p.physics)
+        elevation, azimuth, _, _ = projectile.firing_solution(delta, wind, p.speed_max, self.physics)
         return np.stack([elevation / ELEVATION_LIMIT, azimuth / AZIMUTH_LIMIT, np.ones(n)], axis=-1)
 
 
@@ -269,6 +270,7 @@ class ProjectileAdjustFire(AnalyticController):
 
     def __init__(self, params: ProjectileAdjustParams) -> None:
         self.params = params
+        self.physics = params.physics
 
     def act(self, obs: np.ndarray) -> np.ndarray:
         p = self.params
@@ -283,7 +285,7 @@ class ProjectileAdjustFire(AnalyticController):
             )
         wind[~np.isfinite(wind).all(axis=-1)] = 0.0
         delta = np.stack([distance, p.radius - height, zeros], axis=-1)
-        elevation, azimuth, _, _ = projectile.firing_solution(delta, wind, p.speed_max, p.physics)
+        elevation, azimuth, _, _ = projectile.firing_solution(delta, wind, p.speed_max, self.physics)
         return np.stack([elevation / ELEVATION_LIMIT, azimuth / AZIMUTH_LIMIT, np.ones(n)], axis=-1)
 
 

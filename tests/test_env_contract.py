@@ -976,7 +976,7 @@ def test_unknown_keyword_raises_a_type_error_listing_the_parameters(env_id: str)
         gym.make(env_id, **{misspelt: 1.0})
 
 
-def test_a_physics_subset_takes_the_fields_of_its_names_and_refuses_a_missing_or_unknown_one() -> None:
+def test_a_physics_subset_takes_the_fields_of_its_names_and_refuses_a_missing_unknown_or_doubled_one() -> None:
     task = AircraftEnvParams(max_turn_rate=0.2, wind_x=3.0)
     physics = task.subset(AircraftParams, book_faithful=True)
     assert (physics.max_turn_rate, physics.wind_x, physics.book_faithful) == (0.2, 3.0, True)
@@ -987,6 +987,8 @@ def test_a_physics_subset_takes_the_fields_of_its_names_and_refuses_a_missing_or
         task.subset(AircraftParams, book_faithful=False, book_faithfull=True)
     with pytest.raises(TypeError, match="AircraftEnvParams has no parameter 'length' of PendulumParams"):
         task.subset(PendulumParams)
+    with pytest.raises(TypeError, match="'wind_x' is a parameter of AircraftEnvParams: its value is taken"):
+        task.subset(AircraftParams, book_faithful=False, wind_x=-1.0)
 
 
 @pytest.mark.parametrize("env_id", ENV_IDS)

@@ -167,12 +167,14 @@ class Params:
     def subset(self, cls: type[ParamsT], **given: Any) -> ParamsT:
         """The parameter set ``cls`` (a task's physics, say) of this set's fields of the same names, and ``given``
         for the others; ``TypeError`` names a field of ``cls`` that neither has (none is left at its default
-        unseen) or a name in ``given`` that ``cls`` lacks."""
+        unseen), a name in ``given`` that ``cls`` lacks, or one that this set has (its own value is taken)."""
         own = {f.name for f in dataclasses.fields(self)}  # type: ignore[arg-type]
         names = [f.name for f in dataclasses.fields(cls)]  # type: ignore[arg-type]
-        unknown = next((name for name in given if name not in names), None)
-        if unknown is not None:
-            raise TypeError(f"{cls.__name__} has no parameter {unknown!r}")
+        for name in given:
+            if name not in names:
+                raise TypeError(f"{cls.__name__} has no parameter {name!r}")
+            if name in own:
+                raise TypeError(f"{name!r} is a parameter of {type(self).__name__}: its value is taken, not given")
         missing = next((name for name in names if name not in own and name not in given), None)
         if missing is not None:
             raise TypeError(f"{type(self).__name__} has no parameter {missing!r} of {cls.__name__}: give it")
