@@ -1396,6 +1396,7 @@ def test_bad_input_is_a_clear_error(tmp_path: Path, capsys: pytest.CaptureFixtur
     assert f"{tmp_path}: it is a directory" in capsys.readouterr().out and not (tmp_path / "s.db").exists()
 
 
+@pytest.mark.skipif(sys.platform != "linux", reason="SDL finds the native display without DISPLAY elsewhere")
 def test_demo_without_a_display_says_to_write_a_gif(monkeypatch: Any, capsys: pytest.CaptureFixture[str]) -> None:
     for name in ("DISPLAY", "WAYLAND_DISPLAY", "SDL_VIDEODRIVER"):
         monkeypatch.delenv(name, raising=False)
